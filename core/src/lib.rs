@@ -1,0 +1,11 @@
+//! flexcal-core: the engine shared by the slave IMU board (f32) and the desktop (f64).
+//!
+//! Everything here is `no_std`, allocation-free and panic-free on any input.
+//! Conventions (those of `recording-v1`): navigation frame `n` is East-North-Up at
+//! the master INS; body frames are right-forward-up; quaternions are Hamilton,
+//! scalar first, `q_b^n` rotating body vectors into `n`.
+#![no_std]
+#![deny(unsafe_code)]
+#![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing))]
+
+pub mod real;

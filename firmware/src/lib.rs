@@ -1,0 +1,2 @@
+//! flexcal firmware library (placeholder until the firmware issue).
+#![no_std]

@@ -1,0 +1,1 @@
+//! flexcal-sim: the desktop side of flexcal (simulator, recordings, calibrator, reports).

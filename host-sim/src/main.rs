@@ -1,0 +1,2 @@
+//! `flexcal`: the desktop tool.
+fn main() {}
