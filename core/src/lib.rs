@@ -9,3 +9,13 @@
 #![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing))]
 
 pub mod real;
+pub mod earth;
+pub mod rotation;
+pub mod strapdown;
+pub mod stats;
+pub mod ident;
+pub mod flexure;
+pub mod kalman;
+pub mod model;
+pub mod align;
+pub mod engine;

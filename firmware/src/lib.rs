@@ -1,2 +1,22 @@
-//! flexcal firmware library (placeholder until the firmware issue).
+//! flexcal firmware, library part: everything of the board program that can be tested on a desk.
+//!
+//! The board binary (`src/main.rs`) is a thin shell around this library: it owns the
+//! hardware and the runtime (vector table, panic and fault handlers, the defmt transport),
+//! and this library owns the logic. Library code logs through the `fmt` shim (module `fmt`), which maps
+//! to defmt on the board and to nothing on the host, so host tests link without a defmt
+//! logger.
 #![no_std]
+#![deny(unsafe_code)]
+#![cfg_attr(
+    test,
+    allow(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::indexing_slicing
+    )
+)]
+
+#[macro_use]
+mod fmt;
+pub mod selftest;

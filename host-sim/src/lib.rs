@@ -1,1 +1,8 @@
 //! flexcal-sim: the desktop side of flexcal (simulator, recordings, calibrator, reports).
+
+pub mod calib;
+pub mod cmd;
+pub mod plot;
+pub mod recording;
+pub mod report;
+pub mod sim;

@@ -1,2 +1,40 @@
-//! `flexcal`: the desktop tool.
-fn main() {}
+//! `flexcal`: the desktop tool. Each subcommand lives in `cmd/`.
+
+use clap::{Parser, Subcommand};
+use flexcal_sim::cmd;
+
+#[derive(Parser)]
+#[command(name = "flexcal", version, about = "Slave INS calibration against a master INS, with flexure and dynamic lever arm")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Simulate a scenario and write a recording (format v1, with truth.csv).
+    Simulate(cmd::simulate::Args),
+    /// Calibrate a recording: summary.json, estimates.csv and plots.
+    Calibrate(cmd::calibrate::Args),
+    /// Monte Carlo runs of a scenario: RMS errors, mean σ, NEES with its χ² band.
+    Montecarlo(cmd::montecarlo::Args),
+    /// Identify an AR flexure model (order by AIC/BIC, Ljung-Box check).
+    Identify(cmd::identify::Args),
+}
+
+fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Simulate(a) => cmd::simulate::run(&a),
+        Command::Calibrate(a) => cmd::calibrate::run(&a),
+        Command::Montecarlo(a) => cmd::montecarlo::run(&a),
+        Command::Identify(a) => cmd::identify::run(&a),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("flexcal: error: {e}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}

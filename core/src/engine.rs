@@ -1,0 +1,613 @@
+//! The calibration engine: the slave's strapdown fed by IMU increments, master
+//! messages matched at their time of validity, the error-state Kalman filter with
+//! closed-loop feedback, and the estimates it produces. The same code runs on the
+//! board (f32) and the desktop (f64).
+
+use crate::align::{AlignBuffer, AlignError, Snapshot};
+use crate::earth::{self, Position};
+use crate::flexure::FlexureModel;
+use crate::kalman::{Health, Kalman, ScalarUpdate};
+use crate::model::{self, IntervalMeans, LeverBending, ProcessNoise, StateMat, BA, BG, MU, N, PSI, TH, THD, V};
+use crate::real::Real;
+use crate::rotation::{dcm, exp_so3, quat_exp, quat_log, right_jacobian};
+use crate::strapdown::{Increments, NavState, Strapdown};
+use heapless::{Deque, Vec};
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+
+/// Slave snapshots kept for time alignment: at 200 Hz, 0.64 s of master latency.
+pub const ALIGN_DEPTH: usize = 128;
+/// Master messages that may wait for the slave to catch up.
+pub const PENDING_DEPTH: usize = 8;
+
+/// Which matching measurements the filter uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Matching {
+    /// Velocity matching (static lever arm compensated).
+    pub velocity: bool,
+    /// Attitude matching.
+    pub attitude: bool,
+    /// Angular-rate matching (needs the master's rate; skipped when a message has none).
+    pub angular_rate: bool,
+}
+
+/// White measurement noise of the matching channels (standard deviations).
+#[derive(Clone, Copy, Debug)]
+pub struct MeasurementNoise<T> {
+    /// Velocity matching, per axis (m/s).
+    pub velocity_mps: T,
+    /// Attitude matching, per axis (rad).
+    pub attitude_rad: T,
+    /// Angular-rate matching, per axis (rad/s), for the mean over one filter period.
+    pub rate_radps: T,
+}
+
+/// Initial standard deviations of the filter states.
+#[derive(Clone, Copy, Debug)]
+pub struct InitialSigma<T> {
+    /// Velocity error (m/s).
+    pub velocity_mps: T,
+    /// Misalignment (rad).
+    pub misalignment_rad: T,
+    /// Gyro bias (rad/s).
+    pub gyro_bias_radps: T,
+    /// Accelerometer bias (m/s²).
+    pub accel_bias_mps2: T,
+    /// Flexure angle, used only when the flexure model is not stationary (rad).
+    pub flexure_rad: T,
+}
+
+/// Everything the engine needs to know before it starts.
+#[derive(Clone, Copy, Debug)]
+pub struct EngineConfig<T: Real> {
+    /// Filter period (s): the time update runs every period; the flexure model's
+    /// coefficients must belong to this period.
+    pub filter_period_s: f64,
+    /// Matching channels in use.
+    pub matching: Matching,
+    /// Static lever arm r0 from master to slave, master body frame (m).
+    pub lever_arm_m: Vector3<T>,
+    /// How flexure bends the lever arm (the matrix R of r = r0 + Rθ).
+    pub bending: LeverBending,
+    /// Whether the flexure-bent part of the lever arm is modelled (else: paper's baseline).
+    pub dynamic_lever_arm: bool,
+    /// Flexure AR model at the filter period.
+    pub flexure: FlexureModel<T>,
+    /// Process noise densities.
+    pub process_noise: ProcessNoise<T>,
+    /// Measurement noise.
+    pub measurement_noise: MeasurementNoise<T>,
+    /// Initial uncertainty.
+    pub initial_sigma: InitialSigma<T>,
+    /// Initial misalignment estimate μ̂₀ (rad).
+    pub initial_misalignment_rad: Vector3<T>,
+    /// Innovation gate (standard deviations).
+    pub gate_sigma: T,
+    /// Smallest scaled variance (see `Kalman`).
+    pub variance_floor: T,
+}
+
+/// One master navigation message.
+#[derive(Clone, Copy, Debug)]
+pub struct MasterNav<T: Real> {
+    /// Time of validity (s, slave time base).
+    pub t: f64,
+    /// Master attitude `q_bm^n`.
+    pub q_bm_n: UnitQuaternion<T>,
+    /// Master velocity, ENU (m/s).
+    pub v_n: Vector3<T>,
+    /// Master position.
+    pub pos: Position<T>,
+    /// Master angular rate `ω_ib^bm` (rad/s), when the master gives it.
+    pub w_ib_bm: Option<Vector3<T>>,
+}
+
+/// One slave IMU sample: increments over `(t_prev, t]`, raw (not bias-corrected).
+#[derive(Clone, Copy, Debug)]
+pub struct ImuIncrement<T: Real> {
+    /// End of the interval (s).
+    pub t: f64,
+    /// ∫ ω_ib^bs dt (rad).
+    pub dtheta_b: Vector3<T>,
+    /// ∫ f^bs dt (m/s).
+    pub dv_b: Vector3<T>,
+}
+
+/// Input the engine refused, and why.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum EngineError {
+    /// An IMU sample's time did not increase.
+    ImuTimeNotIncreasing,
+    /// An input had a non-finite value.
+    NonFinite,
+    /// A master message was not newer than the previous one.
+    MasterOutOfOrder,
+    /// A master message's time of validity is older than the alignment buffer.
+    MasterStale,
+    /// Too many master messages were waiting for the slave; the oldest was dropped.
+    PendingOverflow,
+    /// The configuration is inconsistent (flexure period ≠ filter period, non-positive values).
+    BadConfig,
+}
+
+/// The matching innovations of one master message (absent channels are `None`).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct MatchReport<T> {
+    /// Time of validity (s).
+    pub t: f64,
+    /// Velocity channel updates (E, N, U).
+    pub velocity: Option<[ScalarUpdate<T>; 3]>,
+    /// Attitude channel updates (slave body x, y, z).
+    pub attitude: Option<[ScalarUpdate<T>; 3]>,
+    /// Angular-rate channel updates (slave body x, y, z).
+    pub angular_rate: Option<[ScalarUpdate<T>; 3]>,
+}
+
+/// Counters of what happened to the inputs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counters {
+    /// IMU samples integrated.
+    pub imu_samples: u32,
+    /// Master messages matched.
+    pub master_matched: u32,
+    /// Master messages refused as stale (older than the buffer).
+    pub master_stale: u32,
+    /// Master messages refused as out of order.
+    pub master_out_of_order: u32,
+    /// Master messages dropped because too many were waiting.
+    pub master_dropped: u32,
+    /// Filter time updates.
+    pub predictions: u32,
+    /// Times the filter state was re-initialized.
+    pub resets: u32,
+}
+
+/// The calibrated quantities with their standard deviations.
+#[derive(Clone, Copy, Debug)]
+pub struct Estimates<T> {
+    /// Time of the latest filter update (s).
+    pub t: f64,
+    /// Gyro bias (rad/s, slave body).
+    pub gyro_bias: Vector3<T>,
+    /// Its standard deviation.
+    pub gyro_bias_sigma: Vector3<T>,
+    /// Accelerometer bias (m/s², slave body).
+    pub accel_bias: Vector3<T>,
+    /// Its standard deviation.
+    pub accel_bias_sigma: Vector3<T>,
+    /// Misalignment μ (rad, rotation vector of `C_bs^bm = Exp(μ + θ)`).
+    pub misalignment: Vector3<T>,
+    /// Its standard deviation.
+    pub misalignment_sigma: Vector3<T>,
+    /// Flexure angle θ (rad).
+    pub flexure: Vector3<T>,
+    /// Its standard deviation.
+    pub flexure_sigma: Vector3<T>,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Epoch<T: Real> {
+    next_t: f64,
+    dtheta: Vector3<T>,
+    dv: Vector3<T>,
+    dt: f64,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct PrevMaster<T: Real> {
+    t: f64,
+    q_bm_n: UnitQuaternion<T>,
+    w_ib_bm: Option<Vector3<T>>,
+}
+
+/// The engine. Feed it with [`Engine::push_imu`] and [`Engine::push_master`].
+#[derive(Clone, Debug)]
+pub struct Engine<T: Real> {
+    cfg: EngineConfig<T>,
+    strapdown: Option<Strapdown<T>>,
+    kf: Kalman<T, N>,
+    buffer: AlignBuffer<T, ALIGN_DEPTH>,
+    pending: Deque<MasterNav<T>, PENDING_DEPTH>,
+    gyro_bias: Vector3<T>,
+    accel_bias: Vector3<T>,
+    misalignment: Vector3<T>,
+    last_imu_t: Option<f64>,
+    epoch: Option<Epoch<T>>,
+    prev_master: Option<PrevMaster<T>>,
+    last_update_t: f64,
+    counters: Counters,
+}
+
+/// What one IMU sample led to: the master messages matched after it.
+pub type StepReports<T> = Vec<MatchReport<T>, PENDING_DEPTH>;
+
+impl<T: Real> Engine<T> {
+    /// A new engine; it initializes the slave solution from the first master message.
+    pub fn new(cfg: EngineConfig<T>) -> Result<Self, EngineError> {
+        let period_ok = cfg.filter_period_s > 0.0 && cfg.filter_period_s.is_finite();
+        let flex_ok = (cfg.flexure.period_s.to_f64() - cfg.filter_period_s).abs() <= 1e-6 * cfg.filter_period_s;
+        if !(period_ok && flex_ok && cfg.gate_sigma > T::zero()) {
+            return Err(EngineError::BadConfig);
+        }
+        let p0 = Self::initial_covariance(&cfg);
+        Ok(Self {
+            kf: Kalman::new(&p0, cfg.variance_floor),
+            strapdown: None,
+            buffer: AlignBuffer::new(),
+            pending: Deque::new(),
+            gyro_bias: Vector3::zeros(),
+            accel_bias: Vector3::zeros(),
+            misalignment: cfg.initial_misalignment_rad,
+            last_imu_t: None,
+            epoch: None,
+            prev_master: None,
+            last_update_t: 0.0,
+            counters: Counters::default(),
+            cfg,
+        })
+    }
+
+    /// The initial covariance. The slave's attitude is initialized from the master's
+    /// through μ̂₀, so its error is ψ₀ = −J_r(μ̂₀)(δμ + θ₀) plus the master's attitude
+    /// noise: ψ is correlated with δμ and θ from the start, and P₀ says so.
+    fn initial_covariance(cfg: &EngineConfig<T>) -> StateMat<T> {
+        let mut p = StateMat::<T>::zeros();
+        let s = &cfg.initial_sigma;
+        let sq = |x: T| x * x;
+        let blocks = [
+            (V, sq(s.velocity_mps)),
+            (MU, sq(s.misalignment_rad)),
+            (BG, sq(s.gyro_bias_radps)),
+            (BA, sq(s.accel_bias_mps2)),
+        ];
+        for (b, var) in blocks {
+            for k in 0..3 {
+                p[(b + k, b + k)] = var;
+            }
+        }
+        for (axis, ar) in cfg.flexure.axes.iter().enumerate() {
+            let (i, j) = (TH + axis, THD + axis);
+            match ar.stationary_covariance(cfg.flexure.period_s) {
+                Some(c) => {
+                    p[(i, i)] = c[(0, 0)];
+                    p[(i, j)] = c[(0, 1)];
+                    p[(j, i)] = c[(1, 0)];
+                    p[(j, j)] = c[(1, 1)];
+                }
+                None => {
+                    let t = cfg.flexure.period_s;
+                    p[(i, i)] = sq(s.flexure_rad);
+                    p[(j, j)] = sq(s.flexure_rad / t);
+                }
+            }
+        }
+        // ψ = −J (δμ + θ) + n: propagate the covariance through that linear map.
+        let j = right_jacobian(&cfg.initial_misalignment_rad);
+        let mut a = StateMat::<T>::identity();
+        a.fixed_view_mut::<3, 3>(PSI, MU).copy_from(&(-j));
+        a.fixed_view_mut::<3, 3>(PSI, TH).copy_from(&(-j));
+        let mut p = a * p * a.transpose();
+        for k in 0..3 {
+            p[(PSI + k, PSI + k)] += sq(cfg.measurement_noise.attitude_rad);
+        }
+        p
+    }
+
+    /// The configuration in use.
+    pub fn config(&self) -> &EngineConfig<T> {
+        &self.cfg
+    }
+
+    /// Input counters.
+    pub fn counters(&self) -> Counters {
+        self.counters
+    }
+
+    /// Filter health.
+    pub fn health(&self) -> Health {
+        self.kf.health
+    }
+
+    /// The filter (for covariance checks and reports).
+    pub fn filter(&self) -> &Kalman<T, N> {
+        &self.kf
+    }
+
+    /// The slave navigation solution, once initialized.
+    pub fn nav(&self) -> Option<&NavState<T>> {
+        self.strapdown.as_ref().map(|s| &s.nav)
+    }
+
+    /// The current estimates with their standard deviations.
+    pub fn estimates(&self) -> Estimates<T> {
+        let x = self.kf.state();
+        let block = |b: usize| Vector3::new(x[b], x[b + 1], x[b + 2]);
+        let sig = |b: usize| Vector3::new(self.kf.sigma(b), self.kf.sigma(b + 1), self.kf.sigma(b + 2));
+        Estimates {
+            t: self.last_update_t,
+            gyro_bias: self.gyro_bias + block(BG),
+            gyro_bias_sigma: sig(BG),
+            accel_bias: self.accel_bias + block(BA),
+            accel_bias_sigma: sig(BA),
+            misalignment: self.misalignment + block(MU),
+            misalignment_sigma: sig(MU),
+            flexure: block(TH),
+            flexure_sigma: sig(TH),
+        }
+    }
+
+    /// Queues a master message; it is matched as soon as the slave solution reaches
+    /// its time of validity (during this call if it already has).
+    pub fn push_master(&mut self, msg: MasterNav<T>) -> Result<StepReports<T>, EngineError> {
+        let finite = msg.t.is_finite()
+            && msg.q_bm_n.coords.iter().all(|v| v.is_finite())
+            && msg.v_n.iter().all(|v| v.is_finite())
+            && msg.w_ib_bm.is_none_or(|w| w.iter().all(|v| v.is_finite()));
+        if !finite {
+            return Err(EngineError::NonFinite);
+        }
+        let newest_queued = self.pending.back().map(|m| m.t).or(self.prev_master.map(|p| p.t));
+        if newest_queued.is_some_and(|t| msg.t <= t) {
+            self.counters.master_out_of_order += 1;
+            return Err(EngineError::MasterOutOfOrder);
+        }
+        let mut overflow = false;
+        if self.pending.is_full() {
+            let _ = self.pending.pop_front();
+            self.counters.master_dropped += 1;
+            overflow = true;
+        }
+        let _ = self.pending.push_back(msg);
+        let reports = self.process_pending();
+        if overflow {
+            Err(EngineError::PendingOverflow)
+        } else {
+            Ok(reports)
+        }
+    }
+
+    /// Integrates one IMU sample, runs the filter's time update when a period has
+    /// elapsed, and matches any master message whose time has been reached.
+    pub fn push_imu(&mut self, s: ImuIncrement<T>) -> Result<StepReports<T>, EngineError> {
+        if !(s.t.is_finite() && s.dtheta_b.iter().chain(s.dv_b.iter()).all(|v| v.is_finite())) {
+            return Err(EngineError::NonFinite);
+        }
+        let Some(t_prev) = self.last_imu_t.replace(s.t) else {
+            // The first sample only starts the clock (recording-v1).
+            return Ok(Vec::new());
+        };
+        if s.t <= t_prev {
+            self.last_imu_t = Some(t_prev);
+            return Err(EngineError::ImuTimeNotIncreasing);
+        }
+        self.counters.imu_samples += 1;
+        let dt = s.t - t_prev;
+        if let Some(sd) = self.strapdown.as_mut() {
+            let dtt = T::of(dt);
+            let inc = Increments {
+                dtheta_b: s.dtheta_b - self.gyro_bias * dtt,
+                dv_b: s.dv_b - self.accel_bias * dtt,
+                dt: dtt,
+            };
+            sd.step(&inc);
+            let nav = sd.nav;
+            self.buffer.push(Snapshot {
+                t: s.t,
+                q_b_n: nav.q_b_n,
+                v_n: nav.v_n,
+                pos: nav.pos,
+                dtheta_raw_b: s.dtheta_b,
+                dv_raw_b: s.dv_b,
+                dt,
+            });
+            if let Some(ep) = self.epoch.as_mut() {
+                ep.dtheta += inc.dtheta_b;
+                ep.dv += inc.dv_b;
+                ep.dt += dt;
+            }
+            self.maybe_predict(s.t);
+        } else {
+            // Not initialized yet: keep the raw increments so the rate is available.
+            self.buffer.push(Snapshot {
+                t: s.t,
+                q_b_n: UnitQuaternion::identity(),
+                v_n: Vector3::zeros(),
+                pos: Position::default(),
+                dtheta_raw_b: s.dtheta_b,
+                dv_raw_b: s.dv_b,
+                dt,
+            });
+        }
+        Ok(self.process_pending())
+    }
+
+    fn maybe_predict(&mut self, t: f64) {
+        let period = self.cfg.filter_period_s;
+        let Some(ep) = self.epoch else { return };
+        // A sample within a millionth of a period of the epoch counts as reaching it.
+        if t + 1e-6 * period < ep.next_t || ep.dt <= 0.0 {
+            return;
+        }
+        let Some(nav) = self.strapdown.as_ref().map(|s| s.nav) else { return };
+        let dtt = T::of(ep.dt);
+        let means = IntervalMeans {
+            f_b: ep.dv / dtt,
+            w_ib_b: ep.dtheta / dtt,
+            c_b_n: dcm(&nav.q_b_n),
+            v_n: nav.v_n,
+            pos: nav.pos,
+        };
+        let phi = model::transition(&means, &self.cfg.flexure, dtt);
+        let q = model::process_noise(&self.cfg.process_noise, &self.cfg.flexure, dtt);
+        self.kf.predict(&phi, &q);
+        self.counters.predictions += 1;
+        // The next epoch; after a gap, restart the grid from this sample.
+        let mut next = ep.next_t + period;
+        if next <= t {
+            next = t + period;
+        }
+        self.epoch = Some(Epoch { next_t: next, dtheta: Vector3::zeros(), dv: Vector3::zeros(), dt: 0.0 });
+    }
+
+    fn process_pending(&mut self) -> StepReports<T> {
+        let mut reports = StepReports::new();
+        while let Some(msg) = self.pending.front().copied() {
+            let newest = self.buffer.newest_time();
+            if newest.is_none_or(|t| msg.t > t) {
+                break;
+            }
+            let _ = self.pending.pop_front();
+            if self.strapdown.is_none() {
+                self.initialize(&msg);
+                continue;
+            }
+            match self.match_master(&msg) {
+                Ok(r) => {
+                    self.counters.master_matched += 1;
+                    let _ = reports.push(r);
+                }
+                Err(AlignError::TooOld) => self.counters.master_stale += 1,
+                Err(AlignError::NotYet) => {}
+            }
+            self.prev_master = Some(PrevMaster { t: msg.t, q_bm_n: msg.q_bm_n, w_ib_bm: msg.w_ib_bm });
+        }
+        reports
+    }
+
+    /// Starts the slave solution at the master message's time from the master's
+    /// attitude (through μ̂₀), velocity (with the lever arm) and position, then
+    /// re-integrates the buffered increments after that time.
+    fn initialize(&mut self, msg: &MasterNav<T>) {
+        let c_bm_n = dcm(&msg.q_bm_n);
+        let r0 = self.cfg.lever_arm_m;
+        let q_bs_n = msg.q_bm_n * quat_exp(&self.misalignment);
+        let lever_v = c_bm_n * msg.w_ib_bm.map_or(Vector3::zeros(), |w| w.cross(&r0));
+        let nav = NavState {
+            q_b_n: q_bs_n,
+            v_n: msg.v_n + lever_v,
+            pos: earth::offset_position(&msg.pos, &(c_bm_n * r0)),
+        };
+        let raw: Vec<Snapshot<T>, ALIGN_DEPTH> = self.buffer.iter().filter(|s| s.t > msg.t).copied().collect();
+        self.buffer.clear();
+        let mut sd = Strapdown::new(nav);
+        let start = Snapshot {
+            t: msg.t,
+            q_b_n: nav.q_b_n,
+            v_n: nav.v_n,
+            pos: nav.pos,
+            dtheta_raw_b: Vector3::zeros(),
+            dv_raw_b: Vector3::zeros(),
+            dt: 0.0,
+        };
+        self.buffer.push(start);
+        let mut t_prev = msg.t;
+        for s in raw.iter() {
+            // The interval straddling the start contributes its part after msg.t.
+            let dt = s.t - t_prev;
+            let frac = T::of(if s.dt > 0.0 { (dt / s.dt).clamp(0.0, 1.0) } else { 0.0 });
+            let dtt = T::of(dt);
+            sd.step(&Increments {
+                dtheta_b: (s.dtheta_raw_b * frac) - self.gyro_bias * dtt,
+                dv_b: (s.dv_raw_b * frac) - self.accel_bias * dtt,
+                dt: dtt,
+            });
+            self.buffer.push(Snapshot { q_b_n: sd.nav.q_b_n, v_n: sd.nav.v_n, pos: sd.nav.pos, ..*s });
+            t_prev = s.t;
+        }
+        self.strapdown = Some(sd);
+        self.epoch = Some(Epoch {
+            next_t: msg.t + self.cfg.filter_period_s,
+            dtheta: Vector3::zeros(),
+            dv: Vector3::zeros(),
+            dt: t_prev - msg.t,
+        });
+        self.prev_master = Some(PrevMaster { t: msg.t, q_bm_n: msg.q_bm_n, w_ib_bm: msg.w_ib_bm });
+        self.last_update_t = msg.t;
+    }
+
+    /// The master body's rate relative to the Earth (rad/s, master body), for the
+    /// lever-arm velocity: from the master's rate when given, else from the change of
+    /// its attitude since the previous message, else zero.
+    fn master_rate_wrt_earth(&self, msg: &MasterNav<T>, c_bm_n: &Matrix3<T>) -> Vector3<T> {
+        let w_ie_b = c_bm_n.transpose() * earth::earth_rate_n(msg.pos.lat_rad);
+        if let Some(w) = msg.w_ib_bm {
+            return w - w_ie_b;
+        }
+        match self.prev_master {
+            Some(p) if msg.t > p.t && msg.t - p.t <= 2.5 * self.cfg.filter_period_s.max(1e-3) => {
+                let dt = T::of(msg.t - p.t);
+                let w_nb = quat_log(&(p.q_bm_n.inverse() * msg.q_bm_n)) / dt;
+                let w_en = earth::transport_rate_n(&msg.pos, &msg.v_n);
+                w_nb + c_bm_n.transpose() * w_en
+            }
+            _ => Vector3::zeros(),
+        }
+    }
+
+    fn match_master(&mut self, msg: &MasterNav<T>) -> Result<MatchReport<T>, AlignError> {
+        let slave = self.buffer.at(msg.t)?;
+        let c_bm_n = dcm(&msg.q_bm_n);
+        let mut report = MatchReport { t: msg.t, ..MatchReport::default() };
+        let gate = self.cfg.gate_sigma;
+        let jr = right_jacobian(&self.misalignment);
+        let m = self.cfg.matching;
+
+        if m.velocity {
+            let w_eb = self.master_rate_wrt_earth(msg, &c_bm_n);
+            let r0 = self.cfg.lever_arm_m;
+            let z = model::velocity_residual(&slave.v_n, &msg.v_n, &c_bm_n, &w_eb, &r0);
+            let r_bend = self.cfg.bending.matrix(&r0);
+            let rows = model::velocity_rows(&c_bm_n, &w_eb, self.cfg.dynamic_lever_arm.then_some(&r_bend));
+            let r = self.cfg.measurement_noise.velocity_mps * self.cfg.measurement_noise.velocity_mps;
+            report.velocity = Some(self.update3(&rows, &z, r, gate));
+        }
+        if m.attitude {
+            let z = model::attitude_residual(&self.misalignment, &c_bm_n, &dcm(&slave.q_b_n));
+            let rows = model::attitude_rows(&jr);
+            let r = self.cfg.measurement_noise.attitude_rad * self.cfg.measurement_noise.attitude_rad;
+            report.attitude = Some(self.update3(&rows, &z, r, gate));
+        }
+        if m.angular_rate {
+            if let (Some(w_now), Some(prev)) = (msg.w_ib_bm, self.prev_master) {
+                if let (Some(w_prev), true) = (prev.w_ib_bm, msg.t - prev.t <= 2.5 * self.cfg.filter_period_s) {
+                    if let Ok(w_s_raw) = self.buffer.mean_raw_rate(prev.t, msg.t) {
+                        let w_m_mean = (w_prev + w_now) * T::of(0.5);
+                        let w_m_bs = exp_so3(&self.misalignment).transpose() * w_m_mean;
+                        let z = model::rate_residual(&(w_s_raw - self.gyro_bias), &self.misalignment, &w_m_mean);
+                        let rows = model::rate_rows(&w_m_bs, &jr);
+                        let r = self.cfg.measurement_noise.rate_radps * self.cfg.measurement_noise.rate_radps;
+                        report.angular_rate = Some(self.update3(&rows, &z, r, gate));
+                    }
+                }
+            }
+        }
+        self.feedback();
+        self.last_update_t = msg.t;
+        Ok(report)
+    }
+
+    fn update3(&mut self, rows: &model::Rows<T>, z: &Vector3<T>, r: T, gate: T) -> [ScalarUpdate<T>; 3] {
+        let mut out = [ScalarUpdate { innovation: T::zero(), variance: T::zero(), test_ratio: T::zero(), accepted: false }; 3];
+        for (k, (row, slot)) in rows.iter().zip(out.iter_mut()).enumerate() {
+            *slot = self.kf.update_scalar(row, z[k], r, gate);
+        }
+        out
+    }
+
+    /// Closed loop: the estimated navigation errors, sensor biases and misalignment
+    /// go into the nominal solution and their states return to zero. Flexure stays.
+    fn feedback(&mut self) {
+        let x = self.kf.state();
+        let block = |b: usize| Vector3::new(x[b], x[b + 1], x[b + 2]);
+        let (dv, psi) = (block(V), block(PSI));
+        self.gyro_bias += block(BG);
+        self.accel_bias += block(BA);
+        self.misalignment += block(MU);
+        if let Some(sd) = self.strapdown.as_mut() {
+            sd.nav.v_n -= dv;
+            sd.nav.q_b_n = sd.nav.q_b_n * quat_exp(&(-psi));
+        }
+        self.buffer.correct(&dv, &psi);
+        self.kf.reset_states(V..TH);
+    }
+}

@@ -1,0 +1,270 @@
+//! A fixed-size Kalman filter with the habits of PX4's EKF2: sequential scalar updates,
+//! only the non-zero parts of the transition used in the covariance propagation,
+//! symmetry forced, variances clamped to floors, innovation gating by test ratio,
+//! and every anomaly counted in health flags.
+//!
+//! States are held *scaled*: `x = S x_s` with `S = diag(scale)`, where the scales are
+//! the initial standard deviations. In f32 a gyro bias variance of 1e-13 and a
+//! velocity variance of 1e-2 would otherwise share one covariance matrix; scaled,
+//! every diagonal starts at 1, which is what keeps f32 symmetric positive definite.
+
+use crate::real::Real;
+use nalgebra::{SMatrix, SVector};
+
+/// Health counters and flags of the filter.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Health {
+    /// Scalar measurements applied.
+    pub updates: u32,
+    /// Scalar measurements rejected by the innovation gate.
+    pub gated: u32,
+    /// Longest run of consecutive gated measurements.
+    pub max_gated_streak: u32,
+    /// Current run of consecutive gated measurements.
+    pub gated_streak: u32,
+    /// Inputs or results that were not finite (the step was refused).
+    pub non_finite: u32,
+    /// Times a variance fell below its floor and was clamped.
+    pub variance_clamped: u32,
+    /// Times the innovation variance was not positive (the update was refused).
+    pub bad_innovation_variance: u32,
+}
+
+/// Result of one scalar update.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScalarUpdate<T> {
+    /// Innovation `z − h x` (measurement units).
+    pub innovation: T,
+    /// Innovation variance `h P hᵀ + r`.
+    pub variance: T,
+    /// Test ratio `ν² / (gate² s)`: above 1 the measurement was rejected.
+    pub test_ratio: T,
+    /// Whether the measurement was applied.
+    pub accepted: bool,
+}
+
+/// The filter: scaled state and covariance of dimension `N`.
+#[derive(Clone, Debug)]
+pub struct Kalman<T: Real, const N: usize> {
+    xs: SVector<T, N>,
+    ps: SMatrix<T, N, N>,
+    scale: SVector<T, N>,
+    floor: T,
+    /// Health counters.
+    pub health: Health,
+}
+
+impl<T: Real, const N: usize> Kalman<T, N> {
+    /// Creates the filter from the initial covariance `p0` (physical units); the state
+    /// scales are the square roots of its diagonal (a zero diagonal gets scale 1).
+    /// `variance_floor` is the smallest allowed *scaled* variance, e.g. 1e-10.
+    pub fn new(p0: &SMatrix<T, N, N>, variance_floor: T) -> Self {
+        let scale = SVector::<T, N>::from_fn(|i, _| {
+            let d = p0[(i, i)];
+            if d > T::zero() && d.is_finite() {
+                d.sqrt()
+            } else {
+                T::one()
+            }
+        });
+        let ps = SMatrix::<T, N, N>::from_fn(|i, j| p0[(i, j)] / (scale[i] * scale[j]));
+        Self { xs: SVector::zeros(), ps, scale, floor: variance_floor, health: Health::default() }
+    }
+
+    /// State estimate in physical units.
+    pub fn state(&self) -> SVector<T, N> {
+        self.xs.component_mul(&self.scale)
+    }
+
+    /// Covariance element (physical units).
+    pub fn cov(&self, i: usize, j: usize) -> T {
+        match (self.ps.get((i, j)), self.scale.get(i), self.scale.get(j)) {
+            (Some(p), Some(si), Some(sj)) => *p * *si * *sj,
+            _ => T::zero(),
+        }
+    }
+
+    /// Covariance in physical units (for reports and tests; O(N²)).
+    pub fn covariance(&self) -> SMatrix<T, N, N> {
+        SMatrix::from_fn(|i, j| self.cov(i, j))
+    }
+
+    /// Standard deviation of state `i` (physical units).
+    pub fn sigma(&self, i: usize) -> T {
+        self.cov(i, i).max(T::zero()).sqrt()
+    }
+
+    /// Scaled covariance (dimensionless; what the numerics act on).
+    pub fn scaled_covariance(&self) -> &SMatrix<T, N, N> {
+        &self.ps
+    }
+
+    /// Sets the states listed in `indices` to zero after their estimate has been fed
+    /// back into the nominal solution (closed loop).
+    pub fn reset_states(&mut self, indices: core::ops::Range<usize>) {
+        for i in indices {
+            if let Some(x) = self.xs.get_mut(i) {
+                *x = T::zero();
+            }
+        }
+    }
+
+    /// Time update `x ← Φ x`, `P ← Φ P Φᵀ + Q` (physical-unit Φ and Q), using only the
+    /// non-zero entries of Φ and computing one triangle of the symmetric result.
+    pub fn predict(&mut self, phi: &SMatrix<T, N, N>, q: &SMatrix<T, N, N>) {
+        // Scaled transition Φ_s = S⁻¹ Φ S, and its non-zero pattern per row.
+        let mut phis = SMatrix::<T, N, N>::zeros();
+        let mut cols: [[usize; N]; N] = [[0; N]; N];
+        let mut counts = [0usize; N];
+        for i in 0..N {
+            for j in 0..N {
+                let v = phi[(i, j)];
+                if v != T::zero() {
+                    let vs = v * self.scale[j] / self.scale[i];
+                    phis[(i, j)] = vs;
+                    if let (Some(row), Some(c)) = (cols.get_mut(i), counts.get_mut(i)) {
+                        if let Some(slot) = row.get_mut(*c) {
+                            *slot = j;
+                        }
+                        *c += 1;
+                    }
+                }
+            }
+        }
+        let sparse_row_dot = |i: usize, v: &dyn Fn(usize) -> T| -> T {
+            let mut acc = T::zero();
+            if let (Some(row), Some(&c)) = (cols.get(i), counts.get(i)) {
+                for &j in row.iter().take(c) {
+                    acc += phis[(i, j)] * v(j);
+                }
+            }
+            acc
+        };
+        let xs_new = SVector::<T, N>::from_fn(|i, _| sparse_row_dot(i, &|j| self.xs[j]));
+        // A = Φ_s P_s (row i of A combines the rows of P that row i of Φ touches).
+        let a = SMatrix::<T, N, N>::from_fn(|i, k| sparse_row_dot(i, &|j| self.ps[(j, k)]));
+        // P' = A Φ_sᵀ + Q_s, upper triangle then mirrored.
+        let mut p_new = SMatrix::<T, N, N>::zeros();
+        for i in 0..N {
+            for j in i..N {
+                let v = sparse_row_dot(j, &|k| a[(i, k)]) + q[(i, j)] / (self.scale[i] * self.scale[j]);
+                p_new[(i, j)] = v;
+                p_new[(j, i)] = v;
+            }
+        }
+        if xs_new.iter().chain(p_new.iter()).all(|v| v.is_finite()) {
+            self.xs = xs_new;
+            self.ps = p_new;
+            self.clamp_variances();
+        } else {
+            self.health.non_finite += 1;
+        }
+    }
+
+    /// Sequential scalar update with measurement row `h` (physical units), measurement
+    /// `z`, noise variance `r`, and gate `gate` in standard deviations.
+    pub fn update_scalar(&mut self, h: &SVector<T, N>, z: T, r: T, gate: T) -> ScalarUpdate<T> {
+        let hs = h.component_mul(&self.scale);
+        let ph = self.ps * hs;
+        let s = hs.dot(&ph) + r;
+        let innovation = z - hs.dot(&self.xs);
+        let refused = ScalarUpdate { innovation, variance: s, test_ratio: T::zero(), accepted: false };
+        if !(z.is_finite() && r.is_finite() && s.is_finite() && innovation.is_finite()) {
+            self.health.non_finite += 1;
+            return refused;
+        }
+        if s <= T::zero() {
+            self.health.bad_innovation_variance += 1;
+            return refused;
+        }
+        let test_ratio = innovation * innovation / (gate * gate * s);
+        if test_ratio > T::one() {
+            self.health.gated += 1;
+            self.health.gated_streak += 1;
+            self.health.max_gated_streak = self.health.max_gated_streak.max(self.health.gated_streak);
+            return ScalarUpdate { test_ratio, ..refused };
+        }
+        self.health.gated_streak = 0;
+        let k = ph / s;
+        self.xs += k * innovation;
+        // P ← P − K (P h)ᵀ, symmetric by construction; one triangle computed.
+        for i in 0..N {
+            for j in i..N {
+                let v = self.ps[(i, j)] - k[i] * ph[j];
+                self.ps[(i, j)] = v;
+                self.ps[(j, i)] = v;
+            }
+        }
+        self.clamp_variances();
+        self.health.updates += 1;
+        ScalarUpdate { innovation, variance: s, test_ratio, accepted: true }
+    }
+
+    fn clamp_variances(&mut self) {
+        for i in 0..N {
+            if self.ps[(i, i)] < self.floor {
+                self.ps[(i, i)] = self.floor;
+                self.health.variance_clamped += 1;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Matrix2, Vector2};
+
+    #[test]
+    fn scalar_updates_equal_batch_update() {
+        let p0 = Matrix2::new(4.0, 1.0, 1.0, 9.0);
+        let mut kf = Kalman::<f64, 2>::new(&p0, 1e-12);
+        let h1 = Vector2::new(1.0, 0.0);
+        let h2 = Vector2::new(1.0, 1.0);
+        kf.update_scalar(&h1, 1.0, 0.5, 100.0);
+        kf.update_scalar(&h2, 2.0, 0.25, 100.0);
+        // Batch information form.
+        let h = nalgebra::Matrix2::new(1.0, 0.0, 1.0, 1.0);
+        let r = Matrix2::new(0.5, 0.0, 0.0, 0.25);
+        let s = h * p0 * h.transpose() + r;
+        let k = p0 * h.transpose() * s.try_inverse().unwrap();
+        let x = k * Vector2::new(1.0, 2.0);
+        let p = (Matrix2::identity() - k * h) * p0;
+        assert!((kf.state() - x).norm() < 1e-12);
+        assert!((kf.covariance() - p).norm() < 1e-12);
+    }
+
+    #[test]
+    fn predict_equals_dense_propagation() {
+        let p0 = Matrix2::new(4.0, 1.0, 1.0, 9.0);
+        let mut kf = Kalman::<f64, 2>::new(&p0, 1e-12);
+        kf.update_scalar(&Vector2::new(1.0, 0.0), 1.0, 0.5, 100.0);
+        let (x, p) = (kf.state(), kf.covariance());
+        let phi = Matrix2::new(1.0, 0.1, 0.0, 1.0);
+        let q = Matrix2::new(0.01, 0.0, 0.0, 0.02);
+        kf.predict(&phi, &q);
+        assert!((kf.state() - phi * x).norm() < 1e-12);
+        assert!((kf.covariance() - (phi * p * phi.transpose() + q)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn gate_rejects_outliers_and_counts_them() {
+        let mut kf = Kalman::<f64, 2>::new(&Matrix2::identity(), 1e-12);
+        let h = Vector2::new(1.0, 0.0);
+        let u = kf.update_scalar(&h, 100.0, 1.0, 5.0);
+        assert!(!u.accepted);
+        assert_eq!(kf.health.gated, 1);
+        assert_eq!(kf.state(), Vector2::zeros());
+    }
+
+    #[test]
+    fn non_finite_input_is_refused() {
+        let mut kf = Kalman::<f32, 2>::new(&Matrix2::identity(), 1e-10);
+        let u = kf.update_scalar(&Vector2::new(1.0, 0.0), f32::NAN, 1.0, 5.0);
+        assert!(!u.accepted);
+        assert_eq!(kf.health.non_finite, 1);
+        kf.predict(&Matrix2::new(f32::INFINITY, 0.0, 0.0, 1.0), &Matrix2::zeros());
+        assert_eq!(kf.health.non_finite, 2);
+        assert_eq!(kf.covariance(), Matrix2::identity());
+    }
+}

@@ -1,0 +1,239 @@
+//! The error-state model: state layout, transition Φ over one filter period, process
+//! noise Q, and the measurement rows of velocity, attitude and angular-rate matching.
+//!
+//! The derivation, its convention and the paper's errors it corrects are written
+//! down in `docs/error-model.md`; `core/tests/linearization.rs` checks every block
+//! here against finite differences of the nonlinear mechanization and measurements.
+//!
+//! State (21, all in SI units):
+//!
+//! | block | meaning | frame |
+//! |---|---|---|
+//! | `V`   δv  | slave velocity error `v̂ − v` (m/s) | n (ENU) |
+//! | `PSI` ψ   | slave attitude error, `Ĉ_bs^n = C_bs^n Exp(ψ)` (rad) | b_s |
+//! | `MU`  δμ  | mounting misalignment error, `μ = μ̂ + δμ` (rad) | rotation vector of recording-v1 |
+//! | `BG`  ε   | gyro bias error `b_g − b̂_g` (rad/s) | b_s |
+//! | `BA`  ∇   | accelerometer bias error `b_a − b̂_a` (m/s²) | b_s |
+//! | `TH`  θ   | flexure angle (rad) | b_s |
+//! | `THD` θ̇  | mean flexure rate over the last period (rad/s) | b_s |
+//!
+//! The paper's ψ_a is our μ and its ψ_m is μ + θ + ψ (a linear change of variables).
+
+use crate::earth::{self, Position};
+use crate::flexure::FlexureModel;
+use crate::real::Real;
+use crate::rotation::skew;
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+
+/// Number of states of the paper's layout with an AR(2) flexure block.
+pub const N: usize = 21;
+/// Offset of the velocity error block.
+pub const V: usize = 0;
+/// Offset of the slave attitude error block.
+pub const PSI: usize = 3;
+/// Offset of the misalignment error block.
+pub const MU: usize = 6;
+/// Offset of the gyro bias error block.
+pub const BG: usize = 9;
+/// Offset of the accelerometer bias error block.
+pub const BA: usize = 12;
+/// Offset of the flexure angle block.
+pub const TH: usize = 15;
+/// Offset of the flexure rate block.
+pub const THD: usize = 18;
+/// Number of navigation and sensor states (everything before the flexure block).
+const NAV: usize = 15;
+
+/// State vector.
+pub type StateVec<T> = SVector<T, N>;
+/// State-sized square matrix.
+pub type StateMat<T> = SMatrix<T, N, N>;
+
+/// What the slave sensed and was over one filter period: the linearization point of Φ.
+#[derive(Clone, Copy, Debug)]
+pub struct IntervalMeans<T: Real> {
+    /// Mean specific force over the period, slave body frame (m/s²).
+    pub f_b: Vector3<T>,
+    /// Mean angular rate ω_ib over the period, slave body frame (rad/s).
+    pub w_ib_b: Vector3<T>,
+    /// Slave attitude `C_bs^n` at the end of the period.
+    pub c_b_n: Matrix3<T>,
+    /// Slave velocity, ENU (m/s).
+    pub v_n: Vector3<T>,
+    /// Slave position.
+    pub pos: Position<T>,
+}
+
+/// Continuous-time white-noise densities driving the error states.
+#[derive(Clone, Copy, Debug)]
+pub struct ProcessNoise<T> {
+    /// Accelerometer white noise (velocity random walk), m/s/√s.
+    pub accel_vrw: T,
+    /// Gyro white noise (angle random walk), rad/√s.
+    pub gyro_arw: T,
+    /// Gyro bias random walk, rad/s/√s (0: constant bias).
+    pub gyro_bias_rw: T,
+    /// Accelerometer bias random walk, m/s²/√s (0: constant bias).
+    pub accel_bias_rw: T,
+    /// Misalignment random walk, rad/√s (0: rigid mount).
+    pub misalignment_rw: T,
+}
+
+fn put<T: Real, const R: usize, const C: usize>(m: &mut SMatrix<T, R, C>, r: usize, c: usize, b: &Matrix3<T>) {
+    m.fixed_view_mut::<3, 3>(r, c).copy_from(b);
+}
+
+/// Continuous-time error dynamics of the navigation and sensor states (15×15).
+pub fn nav_dynamics<T: Real>(m: &IntervalMeans<T>) -> SMatrix<T, NAV, NAV> {
+    let mut f = SMatrix::<T, NAV, NAV>::zeros();
+    let w_ie = earth::earth_rate_n(m.pos.lat_rad);
+    let w_en = earth::transport_rate_n(&m.pos, &m.v_n);
+    let d_wen_dv = earth::transport_rate_jacobian(&m.pos);
+    // δv̇ = (−[(2ω_ie+ω_en)×] + [v×] ∂ω_en/∂v) δv − C[f×] ψ + C ∇
+    let fvv = -skew(&(w_ie * T::of(2.0) + w_en)) + skew(&m.v_n) * d_wen_dv;
+    put(&mut f, V, V, &fvv);
+    put(&mut f, V, PSI, &(-(m.c_b_n * skew(&m.f_b))));
+    put(&mut f, V, BA, &m.c_b_n);
+    // ψ̇ = −Cᵀ ∂ω_en/∂v δv − [ω_ib×] ψ + ε
+    put(&mut f, PSI, V, &(-(m.c_b_n.transpose() * d_wen_dv)));
+    put(&mut f, PSI, PSI, &(-skew(&m.w_ib_b)));
+    put(&mut f, PSI, BG, &Matrix3::identity());
+    f
+}
+
+/// Transition matrix Φ over one filter period `t` (s): second-order Taylor series of
+/// the navigation block, the exact discrete AR model on the flexure block.
+pub fn transition<T: Real>(m: &IntervalMeans<T>, flex: &FlexureModel<T>, t: T) -> StateMat<T> {
+    let ft = nav_dynamics(m) * t;
+    let phi_nav = SMatrix::<T, NAV, NAV>::identity() + ft + ft * ft * T::of(0.5);
+    let mut phi = StateMat::<T>::zeros();
+    phi.fixed_view_mut::<NAV, NAV>(0, 0).copy_from(&phi_nav);
+    for (axis, ar) in flex.axes.iter().enumerate() {
+        let a = ar.transition(flex.period_s);
+        let (i, j) = (TH + axis, THD + axis);
+        phi[(i, i)] = a[(0, 0)];
+        phi[(i, j)] = a[(0, 1)];
+        phi[(j, i)] = a[(1, 0)];
+        phi[(j, j)] = a[(1, 1)];
+    }
+    phi
+}
+
+/// Discrete process noise Q over one filter period `t` (s).
+pub fn process_noise<T: Real>(noise: &ProcessNoise<T>, flex: &FlexureModel<T>, t: T) -> StateMat<T> {
+    let mut q = StateMat::<T>::zeros();
+    let diag = [
+        (V, noise.accel_vrw),
+        (PSI, noise.gyro_arw),
+        (MU, noise.misalignment_rw),
+        (BG, noise.gyro_bias_rw),
+        (BA, noise.accel_bias_rw),
+    ];
+    for (block, density) in diag {
+        for k in 0..3 {
+            q[(block + k, block + k)] = density * density * t;
+        }
+    }
+    for (axis, ar) in flex.axes.iter().enumerate() {
+        let g = ar.noise_gain(flex.period_s);
+        let s2 = ar.sigma_rad * ar.sigma_rad;
+        let (i, j) = (TH + axis, THD + axis);
+        q[(i, i)] = g[0] * g[0] * s2;
+        q[(i, j)] = g[0] * g[1] * s2;
+        q[(j, i)] = g[0] * g[1] * s2;
+        q[(j, j)] = g[1] * g[1] * s2;
+    }
+    q
+}
+
+/// Measurement rows of one three-axis matching measurement.
+pub type Rows<T> = [SVector<T, N>; 3];
+
+fn rows_from_blocks<T: Real>(blocks: &[(usize, Matrix3<T>)]) -> Rows<T> {
+    let mut rows = [SVector::<T, N>::zeros(); 3];
+    for (axis, row) in rows.iter_mut().enumerate() {
+        for (offset, b) in blocks {
+            for k in 0..3 {
+                row[offset + k] = b[(axis, k)];
+            }
+        }
+    }
+    rows
+}
+
+/// Velocity matching `z_v = v̂_s − v_m − C_bm^n (ω_eb^bm × r0)` (m/s, ENU).
+///
+/// `c_bm_n`: master attitude; `w_eb_bm`: master body rate relative to the Earth (rad/s,
+/// master body frame); `r_flex`: the matrix R of `r = r0 + R θ` (m/rad, master body
+/// frame), or `None` to leave the dynamic lever arm out (the paper's baseline).
+pub fn velocity_rows<T: Real>(c_bm_n: &Matrix3<T>, w_eb_bm: &Vector3<T>, r_flex: Option<&Matrix3<T>>) -> Rows<T> {
+    match r_flex {
+        Some(r) => rows_from_blocks(&[
+            (V, Matrix3::identity()),
+            (TH, c_bm_n * skew(w_eb_bm) * r),
+            (THD, c_bm_n * r),
+        ]),
+        None => rows_from_blocks(&[(V, Matrix3::identity())]),
+    }
+}
+
+/// Attitude matching `z_a = Log(Exp(−μ̂) C_bm^nᵀ Ĉ_bs^n)` (rad, slave body frame).
+/// `jr_mu`: the right Jacobian `J_r(μ̂)`.
+pub fn attitude_rows<T: Real>(jr_mu: &Matrix3<T>) -> Rows<T> {
+    rows_from_blocks(&[(PSI, Matrix3::identity()), (MU, *jr_mu), (TH, *jr_mu)])
+}
+
+/// Angular-rate matching `z_ω = ω̄_s − b̂_g − Exp(μ̂)ᵀ ω̄_m` (rad/s, slave body frame),
+/// both rates being means over the last filter period. `w_m_bs`: `Exp(μ̂)ᵀ ω̄_m`.
+pub fn rate_rows<T: Real>(w_m_bs: &Vector3<T>, jr_mu: &Matrix3<T>) -> Rows<T> {
+    let wj = skew(w_m_bs) * jr_mu;
+    rows_from_blocks(&[(MU, wj), (BG, Matrix3::identity()), (TH, wj), (THD, *jr_mu)])
+}
+
+/// The matrix R of the bent lever arm `r = r0 + R θ` (m/rad, master body frame).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LeverBending {
+    /// Eq. (21) as printed: `R = ½ [[0, z0, 0], [0, 0, x0], [y0, 0, 0]]`.
+    Paper,
+    /// A uniform circular bend of the whole arm: its end moves by `½ θ × r0`,
+    /// so `R = −½ [r0×]`.
+    UniformArc,
+}
+
+impl LeverBending {
+    /// The matrix R for the static lever arm `r0` (m, master body frame).
+    pub fn matrix<T: Real>(self, r0: &Vector3<T>) -> Matrix3<T> {
+        let h = T::of(0.5);
+        match self {
+            Self::Paper => {
+                let z = T::zero();
+                Matrix3::new(z, r0.z, z, z, z, r0.x, r0.y, z, z) * h
+            }
+            Self::UniformArc => -skew(r0) * h,
+        }
+    }
+}
+
+/// Nonlinear velocity-matching residual (m/s, ENU): the slave velocity minus the
+/// master's carried to the slave by the *static* lever arm,
+/// `v̂_s − v_m − C_bm^n (ω_eb^bm × r0)`.
+pub fn velocity_residual<T: Real>(
+    v_slave_n: &Vector3<T>,
+    v_master_n: &Vector3<T>,
+    c_bm_n: &Matrix3<T>,
+    w_eb_bm: &Vector3<T>,
+    r0_bm: &Vector3<T>,
+) -> Vector3<T> {
+    v_slave_n - v_master_n - c_bm_n * w_eb_bm.cross(r0_bm)
+}
+
+/// Nonlinear attitude-matching residual (rad, slave body): `Log(Exp(−μ̂) C_bm^nᵀ Ĉ_bs^n)`.
+pub fn attitude_residual<T: Real>(mu_hat: &Vector3<T>, c_bm_n: &Matrix3<T>, c_bs_n_hat: &Matrix3<T>) -> Vector3<T> {
+    crate::rotation::log_so3(&(crate::rotation::exp_so3(&(-mu_hat)) * c_bm_n.transpose() * c_bs_n_hat))
+}
+
+/// Nonlinear angular-rate-matching residual (rad/s, slave body): the slave's
+/// bias-corrected mean rate minus the master's mean rate carried through `Exp(μ̂)`.
+pub fn rate_residual<T: Real>(w_slave_corrected_bs: &Vector3<T>, mu_hat: &Vector3<T>, w_master_bm: &Vector3<T>) -> Vector3<T> {
+    w_slave_corrected_bs - crate::rotation::exp_so3(mu_hat).transpose() * w_master_bm
+}

@@ -1,0 +1,212 @@
+//! The calibrator's configuration: the model the filter declares (noise, flexure,
+//! lever-arm bending, matching channels, initial uncertainty), as a TOML file.
+//! Units are in the key names; every key has a default (the `moored` scenario's
+//! declared model), so a file only says what differs.
+
+use crate::sim::{self, FlexureSpec, Scenario};
+use flexcal_core::engine::{EngineConfig, InitialSigma, Matching, MeasurementNoise};
+use flexcal_core::flexure::{ArAxis, FlexureModel};
+use flexcal_core::model::{LeverBending, ProcessNoise};
+use flexcal_core::real::Real;
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+/// Calibration configuration (TOML).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct CalibConfig {
+    /// Filter period (s); the flexure AR coefficients belong to this period.
+    pub filter_period_s: f64,
+    /// Matching channels: any of "velocity", "attitude", "angular_rate".
+    pub matching: Vec<String>,
+    /// Model the flexure-bent lever arm (false: the paper's baseline).
+    pub dynamic_lever_arm: bool,
+    /// Lever-arm bending model: "paper" or "uniform_arc".
+    pub bending: sim::Bending,
+    /// Flexure AR(2) coefficients `[a1, a2]` at the filter period (same on each axis).
+    pub flexure_ar: [f64; 2],
+    /// σ of the flexure AR driving noise (rad).
+    pub flexure_sigma_rad: f64,
+    /// Gyro angle random walk (rad/√s).
+    pub gyro_arw_rad_rs: f64,
+    /// Accelerometer velocity random walk (m/s/√s).
+    pub accel_vrw_mps_rs: f64,
+    /// Gyro bias random walk (rad/s/√s).
+    pub gyro_bias_rw: f64,
+    /// Accelerometer bias random walk (m/s²/√s).
+    pub accel_bias_rw: f64,
+    /// Velocity matching noise (m/s).
+    pub velocity_noise_mps: f64,
+    /// Attitude matching noise (rad).
+    pub attitude_noise_rad: f64,
+    /// Angular-rate matching noise for the mean over one period (rad/s); when absent,
+    /// derived from the master's rate noise and the gyro ARW.
+    pub rate_noise_radps: f64,
+    /// Initial σ of the velocity error (m/s).
+    pub initial_velocity_mps: f64,
+    /// Initial σ of the misalignment (rad).
+    pub initial_misalignment_rad: f64,
+    /// Initial σ of the gyro bias (rad/s).
+    pub initial_gyro_bias_radps: f64,
+    /// Initial σ of the accelerometer bias (m/s²).
+    pub initial_accel_bias_mps2: f64,
+    /// Initial σ of the flexure angle when its model is not stationary (rad).
+    pub initial_flexure_rad: f64,
+    /// Innovation gate (σ).
+    pub gate_sigma: f64,
+}
+
+impl Default for CalibConfig {
+    fn default() -> Self {
+        let moored = Scenario::load("moored").ok();
+        match moored {
+            Some(sc) => Self::declared_for(&sc, 0.01),
+            None => Self::declared_fallback(),
+        }
+    }
+}
+
+impl CalibConfig {
+    fn declared_fallback() -> Self {
+        Self {
+            filter_period_s: 0.01,
+            matching: vec!["velocity".into(), "attitude".into(), "angular_rate".into()],
+            dynamic_lever_arm: true,
+            bending: sim::Bending::UniformArc,
+            flexure_ar: [0.0, 0.0],
+            flexure_sigma_rad: 1e-4,
+            gyro_arw_rad_rs: 1e-5,
+            accel_vrw_mps_rs: 1e-4,
+            gyro_bias_rw: 0.0,
+            accel_bias_rw: 0.0,
+            velocity_noise_mps: 0.01,
+            attitude_noise_rad: 1e-4,
+            rate_noise_radps: 1e-4,
+            initial_velocity_mps: 0.1,
+            initial_misalignment_rad: 1f64.to_radians(),
+            initial_gyro_bias_radps: 1.0 * sim::DEG_PER_H,
+            initial_accel_bias_mps2: 1.0 * sim::MG,
+            initial_flexure_rad: 1e-3,
+            gate_sigma: 5.0,
+        }
+    }
+
+    /// The model a scenario declares, at filter period `t` (s): its noise levels, its
+    /// bending model and its flexure as an AR(2) at `t` (a Gauss-Markov truth is
+    /// converted with the same poles and variance). Sensor errors the model has no
+    /// states for (scale factors, non-orthogonality) are *not* declared.
+    pub fn declared_for(sc: &Scenario, t: f64) -> Self {
+        let arw = sc.slave_imu.gyro_arw_deg_rh.to_radians() / 60.0;
+        let (flexure_ar, flexure_sigma_rad) = match sc.flexure {
+            FlexureSpec::None => ([0.0, 0.0], 1e-9),
+            FlexureSpec::Ar { coefficients, sigma_deg, .. } => (coefficients, sigma_deg.to_radians()),
+            FlexureSpec::GaussMarkov { sigma_arcmin, omega_rad_s, damping } => {
+                let ar = ArAxis::from_gauss_markov(omega_rad_s, damping, (sigma_arcmin / 60.0).to_radians(), t);
+                ([ar.a1, ar.a2], ar.sigma_rad)
+            }
+        };
+        let mut matching = vec!["velocity".to_string(), "attitude".to_string()];
+        if sc.master.gives_rate {
+            matching.push("angular_rate".into());
+        }
+        // The rate matching compares mean rates over one period: the slave's gyro noise
+        // averaged over t, and the mean of two master rate samples.
+        let master_rate = sc.master.rate_noise_deg_h * sim::DEG_PER_H;
+        let rate_noise = (arw * arw / t + master_rate * master_rate / 2.0).sqrt();
+        Self {
+            filter_period_s: t,
+            matching,
+            dynamic_lever_arm: true,
+            bending: sc.lever_arm.bending,
+            flexure_ar,
+            flexure_sigma_rad,
+            gyro_arw_rad_rs: arw,
+            accel_vrw_mps_rs: sc.slave_imu.accel_vrw_mps_rh / 60.0,
+            gyro_bias_rw: 0.0,
+            accel_bias_rw: 0.0,
+            velocity_noise_mps: sc.master.velocity_noise_mps,
+            attitude_noise_rad: sc.master.attitude_noise_deg.to_radians(),
+            rate_noise_radps: rate_noise,
+            ..Self::declared_fallback()
+        }
+    }
+
+    /// Reads a configuration file.
+    pub fn load(path: &std::path::Path) -> Result<Self, String> {
+        let text = std::fs::read_to_string(path).map_err(|e| format!("config `{}`: {e}", path.display()))?;
+        let c: Self = toml::from_str(&text).map_err(|e| format!("config `{}`: {e}", path.display()))?;
+        c.validate().map_err(|e| format!("config `{}`: {e}", path.display()))?;
+        Ok(c)
+    }
+
+    /// Checks values the filter cannot run with.
+    pub fn validate(&self) -> Result<(), String> {
+        for m in &self.matching {
+            if !["velocity", "attitude", "angular_rate"].contains(&m.as_str()) {
+                return Err(format!("`matching`: unknown channel `{m}` (velocity, attitude, angular_rate)"));
+            }
+        }
+        let positive = [
+            ("filter_period_s", self.filter_period_s),
+            ("velocity_noise_mps", self.velocity_noise_mps),
+            ("attitude_noise_rad", self.attitude_noise_rad),
+            ("rate_noise_radps", self.rate_noise_radps),
+            ("gate_sigma", self.gate_sigma),
+            ("initial_velocity_mps", self.initial_velocity_mps),
+            ("initial_misalignment_rad", self.initial_misalignment_rad),
+            ("initial_gyro_bias_radps", self.initial_gyro_bias_radps),
+            ("initial_accel_bias_mps2", self.initial_accel_bias_mps2),
+        ];
+        for (k, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("`{k}` must be a positive number, got {v}"));
+            }
+        }
+        Ok(())
+    }
+
+    /// The matching channels as flags.
+    pub fn matching_flags(&self) -> Matching {
+        let has = |n: &str| self.matching.iter().any(|m| m == n);
+        Matching { velocity: has("velocity"), attitude: has("attitude"), angular_rate: has("angular_rate") }
+    }
+
+    /// The engine configuration in precision `T`, for a recording with lever arm `r0_m`.
+    pub fn engine_config<T: Real>(&self, r0_m: [f64; 3]) -> EngineConfig<T> {
+        let c = T::of;
+        let ar = ArAxis { a1: c(self.flexure_ar[0]), a2: c(self.flexure_ar[1]), sigma_rad: c(self.flexure_sigma_rad) };
+        EngineConfig {
+            filter_period_s: self.filter_period_s,
+            matching: self.matching_flags(),
+            lever_arm_m: Vector3::new(c(r0_m[0]), c(r0_m[1]), c(r0_m[2])),
+            bending: match self.bending {
+                sim::Bending::Paper => LeverBending::Paper,
+                sim::Bending::UniformArc => LeverBending::UniformArc,
+            },
+            dynamic_lever_arm: self.dynamic_lever_arm,
+            flexure: FlexureModel { axes: [ar; 3], period_s: c(self.filter_period_s) },
+            process_noise: ProcessNoise {
+                accel_vrw: c(self.accel_vrw_mps_rs),
+                gyro_arw: c(self.gyro_arw_rad_rs),
+                gyro_bias_rw: c(self.gyro_bias_rw),
+                accel_bias_rw: c(self.accel_bias_rw),
+                misalignment_rw: T::zero(),
+            },
+            measurement_noise: MeasurementNoise {
+                velocity_mps: c(self.velocity_noise_mps),
+                attitude_rad: c(self.attitude_noise_rad),
+                rate_radps: c(self.rate_noise_radps),
+            },
+            initial_sigma: InitialSigma {
+                velocity_mps: c(self.initial_velocity_mps),
+                misalignment_rad: c(self.initial_misalignment_rad),
+                gyro_bias_radps: c(self.initial_gyro_bias_radps),
+                accel_bias_mps2: c(self.initial_accel_bias_mps2),
+                flexure_rad: c(self.initial_flexure_rad),
+            },
+            initial_misalignment_rad: Vector3::zeros(),
+            gate_sigma: c(self.gate_sigma),
+            variance_floor: c(1e-9),
+        }
+    }
+}

@@ -1,0 +1,6 @@
+//! The calibrator on the desktop: configuration, the run over a recording, scoring
+//! against truth, and the outputs of `flexcal calibrate`.
+
+pub mod config;
+pub mod run;
+pub mod score;

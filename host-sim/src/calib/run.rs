@@ -1,0 +1,219 @@
+//! Runs the engine over a recording in f64 or f32, exactly as the board would be fed
+//! (IMU samples in order, each master message handed over once the slave has reached
+//! its time of validity), and gathers estimates, innovations and covariance checks.
+
+use super::config::CalibConfig;
+use crate::recording::Recording;
+use flexcal_core::earth::Position;
+use flexcal_core::engine::{Counters, Engine, ImuIncrement, MasterNav, MatchReport};
+use flexcal_core::kalman::Health;
+use flexcal_core::model::{BA, BG, MU, N};
+use flexcal_core::real::Real;
+use nalgebra::{Quaternion, SMatrix, UnitQuaternion, Vector3};
+
+/// Numeric precision of the engine.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Precision {
+    /// Double precision (desktop reference).
+    F64,
+    /// Single precision (as on the board).
+    F32,
+}
+
+/// The estimates after one master update (f64, SI).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct EstimateRow {
+    /// Time of validity (s).
+    pub t: f64,
+    /// Gyro bias (rad/s).
+    pub gyro_bias: [f64; 3],
+    /// σ.
+    pub gyro_bias_sigma: [f64; 3],
+    /// Accelerometer bias (m/s²).
+    pub accel_bias: [f64; 3],
+    /// σ.
+    pub accel_bias_sigma: [f64; 3],
+    /// Misalignment (rad).
+    pub misalignment: [f64; 3],
+    /// σ.
+    pub misalignment_sigma: [f64; 3],
+    /// Flexure angle (rad).
+    pub flexure: [f64; 3],
+    /// σ.
+    pub flexure_sigma: [f64; 3],
+}
+
+/// One matching channel's scalar innovation.
+#[derive(Clone, Copy, Debug)]
+pub struct Innovation {
+    /// Time of validity (s).
+    pub t: f64,
+    /// Channel: 0 velocity, 1 attitude, 2 angular rate.
+    pub channel: usize,
+    /// Axis 0..3.
+    pub axis: usize,
+    /// Innovation.
+    pub value: f64,
+    /// Its predicted variance.
+    pub variance: f64,
+    /// Whether it passed the gate.
+    pub accepted: bool,
+}
+
+/// Channel names in the order of `Innovation::channel`.
+pub const CHANNELS: [&str; 3] = ["velocity", "attitude", "angular_rate"];
+
+/// Covariance health over the run.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct CovarianceCheck {
+    /// How many times the covariance was checked (after every master update).
+    pub checks: usize,
+    /// Checks where the Cholesky factorization of the scaled covariance failed.
+    pub not_positive_definite: usize,
+    /// Largest |P_ij − P_ji| seen, scaled units.
+    pub max_asymmetry: f64,
+    /// Smallest diagonal element seen, scaled units.
+    pub min_diagonal: f64,
+}
+
+/// Everything a calibration run produced.
+pub struct CalibResult {
+    /// Estimates after every master update.
+    pub rows: Vec<EstimateRow>,
+    /// Scalar innovations.
+    pub innovations: Vec<Innovation>,
+    /// Input counters.
+    pub counters: Counters,
+    /// Filter health.
+    pub health: Health,
+    /// Covariance checks.
+    pub covariance: CovarianceCheck,
+    /// Final covariance of (gyro bias, accel bias, misalignment), physical units.
+    pub final_cov9: SMatrix<f64, 9, 9>,
+    /// Precision used.
+    pub precision: Precision,
+}
+
+impl CalibResult {
+    /// Mean normalized innovation squared over accepted scalar innovations (expect 1).
+    pub fn nis_mean(&self) -> f64 {
+        let acc: Vec<f64> = self.innovations.iter().filter(|i| i.accepted).map(|i| i.value * i.value / i.variance).collect();
+        if acc.is_empty() {
+            0.0
+        } else {
+            acc.iter().sum::<f64>() / acc.len() as f64
+        }
+    }
+
+    /// The last estimates.
+    pub fn last(&self) -> EstimateRow {
+        self.rows.last().copied().unwrap_or_default()
+    }
+}
+
+fn to3<T: Real>(v: &Vector3<T>) -> [f64; 3] {
+    [v.x.to_f64(), v.y.to_f64(), v.z.to_f64()]
+}
+
+fn master_nav<T: Real>(m: &crate::recording::MasterMsg) -> MasterNav<T> {
+    let q = m.q_bm_n.map(T::of);
+    MasterNav {
+        t: m.t,
+        q_bm_n: UnitQuaternion::new_normalize(Quaternion::new(q[0], q[1], q[2], q[3])),
+        v_n: Vector3::from(m.v_n_mps.map(T::of)),
+        pos: Position {
+            lat_rad: T::of(m.lat_deg.to_radians()),
+            lon_rad: T::of(m.lon_deg.to_radians()),
+            height_m: T::of(m.height_m),
+        },
+        w_ib_bm: m.omega_ib_bm_radps.map(|w| Vector3::from(w.map(T::of))),
+    }
+}
+
+fn record_report<T: Real>(r: &MatchReport<T>, out: &mut Vec<Innovation>) {
+    for (channel, ups) in [r.velocity, r.attitude, r.angular_rate].iter().enumerate() {
+        if let Some(ups) = ups {
+            for (axis, u) in ups.iter().enumerate() {
+                out.push(Innovation {
+                    t: r.t,
+                    channel,
+                    axis,
+                    value: u.innovation.to_f64(),
+                    variance: u.variance.to_f64(),
+                    accepted: u.accepted,
+                });
+            }
+        }
+    }
+}
+
+/// Calibrates a recording with a configuration, in precision `T`.
+pub fn run_generic<T: Real>(rec: &Recording, cfg: &CalibConfig, precision: Precision) -> Result<CalibResult, String> {
+    let mut engine = Engine::<T>::new(cfg.engine_config::<T>(rec.meta.lever_arm_m))
+        .map_err(|e| format!("engine configuration refused: {e:?}"))?;
+    let mut rows = Vec::with_capacity(rec.master.len());
+    let mut innovations = Vec::new();
+    let mut cov = CovarianceCheck { min_diagonal: f64::INFINITY, ..Default::default() };
+    let start = ImuIncrement { t: rec.imu_t0, dtheta_b: Vector3::zeros(), dv_b: Vector3::zeros() };
+    engine.push_imu(start).map_err(|e| format!("IMU start at t = {}: {e:?}", rec.imu_t0))?;
+    let mut masters = rec.master.iter().peekable();
+    let mut handle = |engine: &Engine<T>, reports: &[MatchReport<T>], rows: &mut Vec<EstimateRow>, cov: &mut CovarianceCheck| {
+        for r in reports {
+            record_report(r, &mut innovations);
+            let e = engine.estimates();
+            rows.push(EstimateRow {
+                t: r.t,
+                gyro_bias: to3(&e.gyro_bias),
+                gyro_bias_sigma: to3(&e.gyro_bias_sigma),
+                accel_bias: to3(&e.accel_bias),
+                accel_bias_sigma: to3(&e.accel_bias_sigma),
+                misalignment: to3(&e.misalignment),
+                misalignment_sigma: to3(&e.misalignment_sigma),
+                flexure: to3(&e.flexure),
+                flexure_sigma: to3(&e.flexure_sigma),
+            });
+            let p = engine.filter().scaled_covariance().map(|v| v.to_f64());
+            cov.checks += 1;
+            cov.max_asymmetry = cov.max_asymmetry.max((p - p.transpose()).abs().max());
+            cov.min_diagonal = cov.min_diagonal.min(p.diagonal().min());
+            // Positive definiteness is checked in the engine's own precision.
+            if engine.filter().scaled_covariance().clone().cholesky().is_none() {
+                cov.not_positive_definite += 1;
+            }
+        }
+    };
+    for s in &rec.imu {
+        let inc = ImuIncrement { t: s.t, dtheta_b: Vector3::from(s.dtheta_rad.map(T::of)), dv_b: Vector3::from(s.dv_mps.map(T::of)) };
+        let reports = engine.push_imu(inc).map_err(|e| format!("IMU sample at t = {}: {e:?}", s.t))?;
+        handle(&engine, &reports, &mut rows, &mut cov);
+        while let Some(m) = masters.next_if(|m| m.t <= s.t) {
+            match engine.push_master(master_nav::<T>(m)) {
+                Ok(reports) => handle(&engine, &reports, &mut rows, &mut cov),
+                // Refused messages are counted by the engine and reported in the summary.
+                Err(_) => {}
+            }
+        }
+    }
+    let p = engine.filter().covariance();
+    let idx = [BG, BG + 1, BG + 2, BA, BA + 1, BA + 2, MU, MU + 1, MU + 2];
+    let final_cov9 = SMatrix::<f64, 9, 9>::from_fn(|i, j| p[(idx[i], idx[j])].to_f64());
+    debug_assert_eq!(p.nrows(), N);
+    Ok(CalibResult {
+        rows,
+        innovations,
+        counters: engine.counters(),
+        health: engine.health(),
+        covariance: cov,
+        final_cov9,
+        precision,
+    })
+}
+
+/// Calibrates a recording in the requested precision.
+pub fn run(rec: &Recording, cfg: &CalibConfig, precision: Precision) -> Result<CalibResult, String> {
+    match precision {
+        Precision::F64 => run_generic::<f64>(rec, cfg, precision),
+        Precision::F32 => run_generic::<f32>(rec, cfg, precision),
+    }
+}

@@ -1,0 +1,9 @@
+//! The subcommands of `flexcal`, one module each.
+
+pub mod calibrate;
+pub mod identify;
+pub mod montecarlo;
+pub mod simulate;
+
+/// The version written into every JSON output as `tool_version`.
+pub const TOOL_VERSION: &str = env!("CARGO_PKG_VERSION");

@@ -1,0 +1,99 @@
+//! `summary.json` and `estimates.csv` of `flexcal calibrate`.
+
+use crate::calib::config::CalibConfig;
+use crate::calib::run::{CalibResult, EstimateRow};
+use crate::calib::score::Score;
+use crate::cmd::TOOL_VERSION;
+use serde_json::{json, Value};
+use std::io::Write;
+use std::path::Path;
+
+/// The `summary.json` document of one calibration.
+pub fn summary_json(recording: &str, duration_s: f64, cfg: &CalibConfig, res: &CalibResult, score: Option<&Score>) -> Value {
+    let last = res.last();
+    let gated: usize = res.innovations.iter().filter(|i| !i.accepted).count();
+    let accepted = res.innovations.len() - gated;
+    let matching: Vec<&str> = crate::calib::run::CHANNELS
+        .iter()
+        .zip([cfg.matching_flags().velocity, cfg.matching_flags().attitude, cfg.matching_flags().angular_rate])
+        .filter(|(_, on)| *on)
+        .map(|(n, _)| *n)
+        .collect();
+    let mut v = json!({
+        "tool_version": TOOL_VERSION,
+        "recording": recording,
+        "duration_s": duration_s,
+        "precision": res.precision,
+        "model": {
+            "states": flexcal_core::model::N,
+            "matching": matching,
+            "dynamic_lever_arm": cfg.dynamic_lever_arm,
+            "flexure_ar_order": if cfg.flexure_ar[1] != 0.0 { 2 } else if cfg.flexure_ar[0] != 0.0 { 1 } else { 0 },
+            "flexure_ar_coefficients": cfg.flexure_ar,
+            "lever_arm_bending": cfg.bending,
+        },
+        "gyro_bias": last.gyro_bias, "gyro_bias_sigma": last.gyro_bias_sigma,
+        "accel_bias": last.accel_bias, "accel_bias_sigma": last.accel_bias_sigma,
+        "misalignment": last.misalignment, "misalignment_sigma": last.misalignment_sigma,
+        "innovations": { "count": accepted, "nis_mean": res.nis_mean(), "gated": gated },
+        "inputs": {
+            "imu_samples": res.counters.imu_samples,
+            "master_matched": res.counters.master_matched,
+            "master_stale": res.counters.master_stale,
+            "master_out_of_order": res.counters.master_out_of_order,
+            "master_dropped": res.counters.master_dropped,
+        },
+        "health": {
+            "non_finite": res.health.non_finite,
+            "variance_clamped": res.health.variance_clamped,
+            "bad_innovation_variance": res.health.bad_innovation_variance,
+            "max_gated_streak": res.health.max_gated_streak,
+        },
+        "covariance": {
+            "checks": res.covariance.checks,
+            "not_positive_definite": res.covariance.not_positive_definite,
+            "max_asymmetry_scaled": res.covariance.max_asymmetry,
+            "min_diagonal_scaled": res.covariance.min_diagonal,
+        },
+    });
+    if let (Some(s), Some(obj)) = (score, v.as_object_mut()) {
+        obj.insert("errors".into(), json!(s));
+    }
+    v
+}
+
+/// Writes `estimates.csv`: one row per filter update.
+pub fn write_estimates_csv(path: &Path, rows: &[EstimateRow]) -> std::io::Result<()> {
+    let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+    let mut header = vec!["t".to_string()];
+    for (p, _) in FIELDS {
+        for a in ["x", "y", "z"] {
+            header.push(format!("{p}{a}"));
+        }
+        for a in ["x", "y", "z"] {
+            header.push(format!("{p}{a}_sigma"));
+        }
+    }
+    writeln!(f, "{}", header.join(","))?;
+    for r in rows {
+        write!(f, "{}", r.t)?;
+        for (_, get) in FIELDS {
+            let (v, s) = get(r);
+            for x in v.iter().chain(s.iter()) {
+                write!(f, ",{x:e}")?;
+            }
+        }
+        writeln!(f)?;
+    }
+    f.flush()
+}
+
+type Getter = fn(&EstimateRow) -> ([f64; 3], [f64; 3]);
+
+/// Column prefixes of estimates.csv with their getters.
+pub const FIELDS: [(&str, Getter); 4] = [
+    ("bg", |r| (r.gyro_bias, r.gyro_bias_sigma)),
+    ("ba", |r| (r.accel_bias, r.accel_bias_sigma)),
+    ("mu", |r| (r.misalignment, r.misalignment_sigma)),
+    ("th", |r| (r.flexure, r.flexure_sigma)),
+];

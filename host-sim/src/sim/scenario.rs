@@ -1,0 +1,216 @@
+//! Scenarios: what the truth simulator simulates, as TOML files or built-ins.
+//!
+//! Units are in the key names. Built-ins: `paper` (the paper's section 4 as printed),
+//! `moored` (plausible flexure; only the errors the 21-state model declares) and
+//! `matched` (like `moored`, but the flexure truth *is* the filter's AR(2) model, so
+//! the filter's model matches the truth exactly: the Monte Carlo consistency case).
+
+use serde::{Deserialize, Serialize};
+
+/// A complete simulation scenario.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Scenario name (reports).
+    pub name: String,
+    /// Simulated time (s).
+    pub duration_s: f64,
+    /// Master INS position at the start.
+    pub site: SiteSpec,
+    /// Master motion.
+    pub motion: MotionSpec,
+    /// Lever arm and how flexure bends it.
+    pub lever_arm: LeverArmSpec,
+    /// Flexure truth.
+    pub flexure: FlexureSpec,
+    /// Mounting misalignment μ (deg, rotation vector).
+    pub misalignment_deg: [f64; 3],
+    /// Slave IMU.
+    pub slave_imu: ImuSpec,
+    /// Master INS output.
+    pub master: MasterSpec,
+}
+
+/// Site of the master at the start.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SiteSpec {
+    /// Latitude (deg).
+    pub lat_deg: f64,
+    /// Longitude (deg).
+    pub lon_deg: f64,
+    /// Height (m).
+    pub height_m: f64,
+}
+
+/// Master motion: cosine roll, pitch and yaw about a mean heading, and a constant
+/// velocity (zero: moored). Attitude is `C_bm^n = Rz(yaw) Rx(pitch) Ry(roll)`.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct MotionSpec {
+    /// Roll amplitude (deg) about the forward axis.
+    pub roll_amp_deg: f64,
+    /// Roll period (s).
+    pub roll_period_s: f64,
+    /// Pitch amplitude (deg) about the right axis.
+    pub pitch_amp_deg: f64,
+    /// Pitch period (s).
+    pub pitch_period_s: f64,
+    /// Yaw amplitude (deg) about up.
+    pub yaw_amp_deg: f64,
+    /// Yaw period (s).
+    pub yaw_period_s: f64,
+    /// Mean yaw (deg, counter-clockwise from north about up).
+    #[serde(default)]
+    pub heading_deg: f64,
+    /// Speed over ground along the mean heading (m/s).
+    #[serde(default)]
+    pub speed_mps: f64,
+}
+
+/// Lever arm r0 and the bending model R.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct LeverArmSpec {
+    /// r0 from master to slave, master body frame (m).
+    pub r0_m: [f64; 3],
+    /// `"paper"` (eq. 21 as printed) or `"uniform_arc"` (R = −½[r0×]).
+    pub bending: Bending,
+}
+
+/// The bending model of the lever arm.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Bending {
+    /// Eq. (21) as printed.
+    Paper,
+    /// Uniform circular bend.
+    UniformArc,
+}
+
+/// Flexure truth, the same on each axis.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum FlexureSpec {
+    /// No flexure.
+    None,
+    /// A discrete AR(2) process `θ_k = a1 θ_{k−1} + a2 θ_{k−2} + η` at `period_s`,
+    /// linear between samples (its rate is then exactly the backward difference).
+    Ar {
+        /// `[a1, a2]`.
+        coefficients: [f64; 2],
+        /// σ of η (deg).
+        sigma_deg: f64,
+        /// Sample period (s).
+        period_s: f64,
+    },
+    /// Second-order Gauss-Markov `θ̈ + 2ζω θ̇ + ω² θ = w`, exactly discretized on the
+    /// simulator's fine grid, with stationary σ of θ.
+    GaussMarkov {
+        /// Stationary σ of θ (arcmin).
+        sigma_arcmin: f64,
+        /// Natural frequency ω (rad/s).
+        omega_rad_s: f64,
+        /// Damping ratio ζ.
+        damping: f64,
+    },
+}
+
+/// Slave IMU errors and rate. Biases and scale factors are per axis.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ImuSpec {
+    /// Output rate (Hz).
+    pub rate_hz: f64,
+    /// Gyro bias (deg/h).
+    pub gyro_bias_deg_h: [f64; 3],
+    /// Accelerometer bias (mg, 1 mg = 9.80665e-3 m/s²).
+    pub accel_bias_mg: [f64; 3],
+    /// Gyro scale factor error (ppm).
+    #[serde(default)]
+    pub gyro_scale_ppm: [f64; 3],
+    /// Accelerometer scale factor error (ppm).
+    #[serde(default)]
+    pub accel_scale_ppm: [f64; 3],
+    /// Gyro axis non-orthogonality: `[xy, xz, yz]` small angles (µrad), symmetric.
+    #[serde(default)]
+    pub gyro_nonorthogonality_urad: [f64; 3],
+    /// Gyro angle random walk (deg/√h).
+    pub gyro_arw_deg_rh: f64,
+    /// Accelerometer velocity random walk (m/s/√h).
+    pub accel_vrw_mps_rh: f64,
+}
+
+/// Master INS output.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct MasterSpec {
+    /// Message rate (Hz).
+    pub rate_hz: f64,
+    /// Whether messages carry the angular rate.
+    pub gives_rate: bool,
+    /// White noise on velocity (m/s, per axis).
+    pub velocity_noise_mps: f64,
+    /// White noise on attitude (deg, per axis).
+    pub attitude_noise_deg: f64,
+    /// White noise on the angular rate (deg/h, per axis).
+    pub rate_noise_deg_h: f64,
+}
+
+const PAPER: &str = include_str!("../../../scenarios/paper.toml");
+const MOORED: &str = include_str!("../../../scenarios/moored.toml");
+const MATCHED: &str = include_str!("../../../scenarios/matched.toml");
+
+/// Names of the built-in scenarios.
+pub const BUILT_IN: [&str; 3] = ["paper", "moored", "matched"];
+
+impl Scenario {
+    /// A built-in scenario by name, or a TOML file by path.
+    pub fn load(name_or_path: &str) -> Result<Self, String> {
+        let (text, origin) = match name_or_path {
+            "paper" => (PAPER.to_string(), "built-in `paper`".to_string()),
+            "moored" => (MOORED.to_string(), "built-in `moored`".to_string()),
+            "matched" => (MATCHED.to_string(), "built-in `matched`".to_string()),
+            path => (
+                std::fs::read_to_string(path).map_err(|e| {
+                    format!("scenario `{path}`: not a built-in ({}) and not a readable file: {e}", BUILT_IN.join(", "))
+                })?,
+                path.to_string(),
+            ),
+        };
+        let s: Scenario = toml::from_str(&text).map_err(|e| format!("scenario {origin}: {e}"))?;
+        s.validate().map_err(|e| format!("scenario {origin}: {e}"))?;
+        Ok(s)
+    }
+
+    /// Checks values a simulation cannot run with.
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = [
+            ("duration_s", self.duration_s),
+            ("slave_imu.rate_hz", self.slave_imu.rate_hz),
+            ("master.rate_hz", self.master.rate_hz),
+            ("motion.roll_period_s", self.motion.roll_period_s),
+            ("motion.pitch_period_s", self.motion.pitch_period_s),
+            ("motion.yaw_period_s", self.motion.yaw_period_s),
+        ];
+        for (key, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("`{key}` must be a positive number, got {v}"));
+            }
+        }
+        let ratio = self.slave_imu.rate_hz / self.master.rate_hz;
+        if (ratio - ratio.round()).abs() > 1e-9 || ratio < 1.0 {
+            return Err(format!(
+                "`slave_imu.rate_hz` ({}) must be an integer multiple of `master.rate_hz` ({})",
+                self.slave_imu.rate_hz, self.master.rate_hz
+            ));
+        }
+        if let FlexureSpec::Ar { period_s, .. } = self.flexure {
+            let k = period_s * self.slave_imu.rate_hz;
+            if !(period_s > 0.0 && (k - k.round()).abs() < 1e-9 && k >= 1.0) {
+                return Err(format!("`flexure.period_s` ({period_s}) must be a positive multiple of the IMU period"));
+            }
+        }
+        Ok(())
+    }
+}
