@@ -9,7 +9,7 @@ use crate::flexure::FlexureModel;
 use crate::kalman::{Health, Kalman, ScalarUpdate};
 use crate::model::{self, IntervalMeans, LeverBending, ProcessNoise, StateMat, BA, BG, MU, N, PSI, TH, THD, V};
 use crate::real::Real;
-use crate::rotation::{dcm, exp_so3, quat_exp, quat_log, right_jacobian};
+use crate::rotation::{dcm, exp_so3, nlerp, quat_exp, quat_log, right_jacobian};
 use crate::strapdown::{Increments, NavState, Strapdown};
 use heapless::{Deque, Vec};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
@@ -188,6 +188,8 @@ pub struct Estimates<T> {
 #[derive(Clone, Copy, Debug)]
 struct Epoch<T: Real> {
     next_t: f64,
+    /// Slave attitude at the start of the period (Φ is linearized at mid-period).
+    q_start: UnitQuaternion<T>,
     dtheta: Vector3<T>,
     dv: Vector3<T>,
     dt: f64,
@@ -433,7 +435,7 @@ impl<T: Real> Engine<T> {
         let means = IntervalMeans {
             f_b: ep.dv / dtt,
             w_ib_b: ep.dtheta / dtt,
-            c_b_n: dcm(&nav.q_b_n),
+            c_b_n: dcm(&nlerp(&ep.q_start, &nav.q_b_n, T::of(0.5))),
             v_n: nav.v_n,
             pos: nav.pos,
         };
@@ -446,7 +448,7 @@ impl<T: Real> Engine<T> {
         if next <= t {
             next = t + period;
         }
-        self.epoch = Some(Epoch { next_t: next, dtheta: Vector3::zeros(), dv: Vector3::zeros(), dt: 0.0 });
+        self.epoch = Some(Epoch { next_t: next, q_start: nav.q_b_n, dtheta: Vector3::zeros(), dv: Vector3::zeros(), dt: 0.0 });
     }
 
     fn process_pending(&mut self) -> StepReports<T> {
@@ -517,6 +519,7 @@ impl<T: Real> Engine<T> {
         self.strapdown = Some(sd);
         self.epoch = Some(Epoch {
             next_t: msg.t + self.cfg.filter_period_s,
+            q_start: nav.q_b_n,
             dtheta: Vector3::zeros(),
             dv: Vector3::zeros(),
             dt: t_prev - msg.t,

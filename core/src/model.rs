@@ -56,7 +56,8 @@ pub struct IntervalMeans<T: Real> {
     pub f_b: Vector3<T>,
     /// Mean angular rate ω_ib over the period, slave body frame (rad/s).
     pub w_ib_b: Vector3<T>,
-    /// Slave attitude `C_bs^n` at the end of the period.
+    /// Slave attitude `C_bs^n` at the middle of the period (the attitude-dependent
+    /// blocks are then accurate to second order in the rotation over the period).
     pub c_b_n: Matrix3<T>,
     /// Slave velocity, ENU (m/s).
     pub v_n: Vector3<T>,
@@ -101,11 +102,13 @@ pub fn nav_dynamics<T: Real>(m: &IntervalMeans<T>) -> SMatrix<T, NAV, NAV> {
     f
 }
 
-/// Transition matrix Φ over one filter period `t` (s): second-order Taylor series of
-/// the navigation block, the exact discrete AR model on the flexure block.
+/// Transition matrix Φ over one filter period `t` (s): third-order Taylor series of
+/// the navigation block (the bias-to-velocity path runs through three blocks), the
+/// exact discrete AR model on the flexure block.
 pub fn transition<T: Real>(m: &IntervalMeans<T>, flex: &FlexureModel<T>, t: T) -> StateMat<T> {
     let ft = nav_dynamics(m) * t;
-    let phi_nav = SMatrix::<T, NAV, NAV>::identity() + ft + ft * ft * T::of(0.5);
+    let ft2 = ft * ft;
+    let phi_nav = SMatrix::<T, NAV, NAV>::identity() + ft + ft2 * T::of(0.5) + ft2 * ft * T::of(1.0 / 6.0);
     let mut phi = StateMat::<T>::zeros();
     phi.fixed_view_mut::<NAV, NAV>(0, 0).copy_from(&phi_nav);
     for (axis, ar) in flex.axes.iter().enumerate() {

@@ -2,6 +2,7 @@
 
 pub mod calib;
 pub mod cmd;
+pub mod identify;
 pub mod plot;
 pub mod recording;
 pub mod report;

@@ -141,7 +141,10 @@ fn section_that_is_not_a_table() {
     let meta = replace(META, "[site]\n", "site = 3\n[elsewhere]\n");
     let err = error(&[("recording.toml", Some(&meta))]);
     assert!(matches!(err.kind(), ErrorKind::Toml(_)));
-    assert_message(&err, &["recording.toml", "line 4"]);
+    assert_message(
+        &err,
+        &["recording.toml", "line 4", "expected a table [site]"],
+    );
 }
 
 #[test]

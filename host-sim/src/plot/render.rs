@@ -28,6 +28,10 @@ const LEGEND_LINE: f64 = 16.0;
 /// Longest legend entry, characters.
 const LEGEND_CHARS: usize = 26;
 
+/// Rough number of tick intervals on the (wide) x axis.
+const X_INTERVALS: f64 = 8.0;
+/// Rough number of tick intervals on a (short) y axis.
+const Y_INTERVALS: f64 = 5.0;
 /// Dash pattern of dashed lines.
 const DASH: &str = r#" stroke-dasharray="6 4""#;
 
@@ -140,7 +144,7 @@ impl Scale<'_> {
 /// The SVG text of `fig`.
 pub(super) fn figure(fig: &Figure) -> String {
     let prepared: Vec<Prepared> = fig.panels.iter().map(Prepared::new).collect();
-    let x_axis = Axis::nice(range(prepared.iter().flat_map(Prepared::xs)));
+    let x_axis = Axis::nice(range(prepared.iter().flat_map(Prepared::xs)), X_INTERVALS);
     let panel_pitch = PANEL_TITLE_HEIGHT + PLOT_HEIGHT + PANEL_GAP;
     let panels_height = match prepared.len() {
         0 => 0.0,
@@ -179,7 +183,7 @@ pub(super) fn figure(fig: &Figure) -> String {
 
 /// One panel whose plotting area starts at pixel row `top`.
 fn draw_panel(o: &mut String, panel: &Panel, data: &Prepared, x_axis: &Axis, top: f64) {
-    let y_axis = Axis::nice(range(data.ys()));
+    let y_axis = Axis::nice(range(data.ys()), Y_INTERVALS);
     let xs = Scale {
         axis: x_axis,
         from: LEFT,

@@ -1,9 +1,6 @@
 //! Axis ranges with "nice" tick values (1, 2 or 5 times a power of ten) and
 //! tick labels printed with just the digits the step needs.
 
-/// Roughly how many tick intervals an axis gets.
-const TARGET_INTERVALS: f64 = 5.0;
-
 /// Most ticks an axis may get; beyond this the range is degenerate for
 /// floating point and the axis falls back to its two ends.
 const MAX_TICKS: usize = 50;
@@ -23,10 +20,12 @@ pub(super) struct Axis {
 
 impl Axis {
     /// The axis for data spanning `range` (`None`: no finite data), widened to
-    /// whole ticks. A zero range is widened around its value.
-    pub(super) fn nice(range: Option<(f64, f64)>) -> Self {
+    /// whole ticks, with roughly `intervals` tick intervals (the step is the
+    /// smallest nice one not below span/`intervals`). A zero range is widened
+    /// around its value.
+    pub(super) fn nice(range: Option<(f64, f64)>, intervals: f64) -> Self {
         let (min, max) = widen(range.unwrap_or((0.0, 1.0)));
-        nice_ticks(min, max).unwrap_or_else(|| Self {
+        nice_ticks(min, max, intervals).unwrap_or_else(|| Self {
             lo: min,
             hi: max,
             step: max / 2.0 - min / 2.0,
@@ -71,8 +70,8 @@ fn nice_step(raw: f64) -> Option<f64> {
 }
 
 /// Ticks at whole multiples of a nice step, from below `min` to above `max`.
-fn nice_ticks(min: f64, max: f64) -> Option<Axis> {
-    let step = nice_step((max - min) / TARGET_INTERVALS)?;
+fn nice_ticks(min: f64, max: f64, intervals: f64) -> Option<Axis> {
+    let step = nice_step((max - min) / intervals)?;
     let first = (min / step).floor();
     let last = (max / step).ceil();
     let count = last - first;
@@ -102,7 +101,7 @@ fn label(v: f64, step: f64, extent: f64) -> String {
         return "0".to_owned();
     }
     let step_exp = step.abs().log10().floor();
-    if !step_exp.is_finite() || extent >= 1e6 || extent < 1e-3 {
+    if !step_exp.is_finite() || !(1e-3..1e6).contains(&extent) {
         let digits = (extent.log10().floor() - step_exp).clamp(0.0, 15.0);
         let digits = if digits.is_finite() {
             digits as usize
@@ -140,7 +139,7 @@ mod tests {
             (37.0001, 37.0009),
         ];
         for (min, max) in ranges {
-            let axis = Axis::nice(Some((min, max)));
+            let axis = Axis::nice(Some((min, max)), 5.0);
             assert!(is_nice(axis.step), "{min}..{max}: step {}", axis.step);
             assert!(axis.lo <= min && axis.hi >= max, "{min}..{max}: {axis:?}");
             let n = axis.ticks.len();
@@ -168,7 +167,7 @@ mod tests {
             Some((1e16, 1e16 + 4.0)),
             Some((0.0, 5e-324)),
         ] {
-            let axis = Axis::nice(range);
+            let axis = Axis::nice(range, 5.0);
             assert!(
                 axis.lo.is_finite() && axis.hi.is_finite() && axis.lo < axis.hi,
                 "{range:?}"
@@ -186,15 +185,17 @@ mod tests {
 
     #[test]
     fn labels_use_the_digits_the_step_needs() {
-        let axis = Axis::nice(Some((0.0, 1.0)));
+        let axis = Axis::nice(Some((0.0, 1.0)), 5.0);
         let labels: Vec<String> = axis.ticks.iter().map(|t| axis.label(*t)).collect();
         assert_eq!(labels, ["0", "0.2", "0.4", "0.6", "0.8", "1.0"]);
-        let axis = Axis::nice(Some((-40.0, 110.0)));
+        let axis = Axis::nice(Some((-40.0, 110.0)), 5.0);
         assert_eq!(axis.label(-50.0), "-50");
-        let axis = Axis::nice(Some((0.0, 3e-6)));
-        assert_eq!(axis.label(1e-6), "1.0e-6");
-        let axis = Axis::nice(Some((0.0, 3e7)));
-        assert_eq!(axis.label(1e7), "1.0e7");
+        let axis = Axis::nice(Some((0.0, 3e-6)), 5.0);
+        assert_eq!(axis.label(1e-6), "1e-6");
+        let axis = Axis::nice(Some((0.0, 1.2e-6)), 5.0);
+        assert_eq!(axis.label(5e-7), "5.0e-7");
+        let axis = Axis::nice(Some((0.0, 3e7)), 5.0);
+        assert_eq!(axis.label(1e7), "1e7");
         assert_eq!(axis.label(-1e-20), "0");
     }
 }

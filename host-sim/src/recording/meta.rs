@@ -42,7 +42,7 @@ struct RawMeta {
 
 /// `[site]`.
 #[derive(Deserialize, Default)]
-#[serde(rename = "site table")]
+#[serde(expecting = "a table [site]")]
 struct RawSite {
     lat_deg: Key,
     lon_deg: Key,
@@ -51,14 +51,14 @@ struct RawSite {
 
 /// `[lever_arm]`.
 #[derive(Deserialize, Default)]
-#[serde(rename = "lever_arm table")]
+#[serde(expecting = "a table [lever_arm]")]
 struct RawLeverArm {
     r0_m: Key,
 }
 
 /// `[slave_imu]`.
 #[derive(Deserialize, Default)]
-#[serde(rename = "slave_imu table")]
+#[serde(expecting = "a table [slave_imu]")]
 struct RawSlave {
     rate_hz: Key,
     output: Key,
@@ -66,14 +66,14 @@ struct RawSlave {
 
 /// `[master]`.
 #[derive(Deserialize, Default)]
-#[serde(rename = "master table")]
+#[serde(expecting = "a table [master]")]
 struct RawMaster {
     rate_hz: Key,
 }
 
 /// `[notes]`.
 #[derive(Deserialize, Default)]
-#[serde(rename = "notes table")]
+#[serde(expecting = "a table [notes]")]
 struct RawNotes {
     text: Key,
 }

@@ -43,6 +43,9 @@ pub fn read_recording(dir: &Path) -> Result<Recording, RecordingError> {
 }
 
 /// Parses `slave_imu.csv`: the clock-starting time and the samples as increments.
+///
+/// The first line's values are checked like any other (a malformed line is an
+/// error wherever it is), then dropped: only its time is kept.
 pub(crate) fn parse_slave(
     path: &Path,
     text: &str,

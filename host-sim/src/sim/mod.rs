@@ -38,24 +38,32 @@ impl Bending {
 }
 
 /// The slave's true state at one instant.
-struct SlaveTruth {
-    c_bs_n: Matrix3<f64>,
-    w_ib_bs: Vector3<f64>,
-    v_n: Vector3<f64>,
-    pos: Position<f64>,
+pub struct SlaveTruth {
+    /// True slave attitude `C_bs^n`.
+    pub c_bs_n: Matrix3<f64>,
+    /// True slave rate `ω_ib^bs` (rad/s).
+    pub w_ib_bs: Vector3<f64>,
+    /// True slave velocity, ENU (m/s).
+    pub v_n: Vector3<f64>,
+    /// True slave position.
+    pub pos: Position<f64>,
 }
 
 /// Constant parts of the truth.
-struct Fixed {
-    mu: Vector3<f64>,
-    r0: Vector3<f64>,
-    r_bend: Matrix3<f64>,
-    v_m: Vector3<f64>,
+pub struct Fixed {
+    /// Mounting misalignment μ (rad).
+    pub mu: Vector3<f64>,
+    /// Static lever arm r0, master body (m).
+    pub r0: Vector3<f64>,
+    /// Bending matrix R of r = r0 + Rθ (m/rad).
+    pub r_bend: Matrix3<f64>,
+    /// Master velocity, ENU (m/s).
+    pub v_m: Vector3<f64>,
 }
 
 /// The slave's true attitude, rate, velocity and position, given the master's
 /// attitude and the flexure angle and (left-limit) rate.
-fn slave_truth(
+pub fn slave_truth(
     fx: &Fixed,
     master: &motion::MasterAttitude,
     pos_m: &Position<f64>,
