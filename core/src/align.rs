@@ -151,7 +151,7 @@ impl<T: Real, const M: usize> AlignBuffer<T, M> {
         let r = quat_exp(&(-psi_b));
         for s in self.ring.iter_mut() {
             s.v_n -= dv_n;
-            s.q_b_n = s.q_b_n * r;
+            s.q_b_n *= r;
         }
     }
 }
@@ -193,6 +193,9 @@ mod tests {
         }
         let r = b.mean_raw_rate(0.0125, 0.0325).unwrap();
         assert!((r.z - 0.3).abs() < 1e-12);
-        assert_eq!(b.mean_raw_rate(-0.01, 0.02).unwrap_err(), AlignError::TooOld);
+        assert_eq!(
+            b.mean_raw_rate(-0.01, 0.02).unwrap_err(),
+            AlignError::TooOld
+        );
     }
 }

@@ -44,7 +44,8 @@ pub fn radii<T: Real>(lat_rad: T) -> (T, T) {
 /// the second-order free-air height correction).
 pub fn normal_gravity<T: Real>(lat_rad: T, height_m: T) -> T {
     let s2 = lat_rad.sin() * lat_rad.sin();
-    let g0 = T::of(GAMMA_E) * (T::one() + T::of(SOMIGLIANA_K) * s2) / (T::one() - T::of(E2) * s2).sqrt();
+    let g0 =
+        T::of(GAMMA_E) * (T::one() + T::of(SOMIGLIANA_K) * s2) / (T::one() - T::of(E2) * s2).sqrt();
     let h = height_m;
     let lin = T::of(2.0 / A) * (T::one() + T::of(F) + T::of(M_RATIO) - T::of(2.0 * F) * s2);
     g0 * (T::one() - lin * h + T::of(3.0 / (A * A)) * h * h)
@@ -52,12 +53,20 @@ pub fn normal_gravity<T: Real>(lat_rad: T, height_m: T) -> T {
 
 /// Gravity vector in ENU (m/s²): `[0, 0, −g]`.
 pub fn gravity_n<T: Real>(pos: &Position<T>) -> Vector3<T> {
-    Vector3::new(T::zero(), T::zero(), -normal_gravity(pos.lat_rad, pos.height_m))
+    Vector3::new(
+        T::zero(),
+        T::zero(),
+        -normal_gravity(pos.lat_rad, pos.height_m),
+    )
 }
 
 /// Earth rate `ω_ie^n` resolved in ENU (rad/s).
 pub fn earth_rate_n<T: Real>(lat_rad: T) -> Vector3<T> {
-    Vector3::new(T::zero(), T::of(OMEGA_IE) * lat_rad.cos(), T::of(OMEGA_IE) * lat_rad.sin())
+    Vector3::new(
+        T::zero(),
+        T::of(OMEGA_IE) * lat_rad.cos(),
+        T::of(OMEGA_IE) * lat_rad.sin(),
+    )
 }
 
 /// Transport rate `ω_en^n` (rad/s) of an ENU frame carried at velocity `v_n` (m/s, ENU).
@@ -122,7 +131,11 @@ mod tests {
 
     #[test]
     fn transport_jacobian_is_exact_derivative() {
-        let pos = Position { lat_rad: 0.6_f64, lon_rad: 2.0, height_m: 50.0 };
+        let pos = Position {
+            lat_rad: 0.6_f64,
+            lon_rad: 2.0,
+            height_m: 50.0,
+        };
         let v = Vector3::new(3.0, 7.0, -0.5);
         let j = transport_rate_jacobian(&pos);
         for i in 0..3 {

@@ -7,7 +7,9 @@ use crate::align::{AlignBuffer, AlignError, Snapshot};
 use crate::earth::{self, Position};
 use crate::flexure::FlexureModel;
 use crate::kalman::{Health, Kalman, ScalarUpdate};
-use crate::model::{self, IntervalMeans, LeverBending, ProcessNoise, StateMat, BA, BG, MU, N, PSI, TH, THD, V};
+use crate::model::{
+    self, IntervalMeans, LeverBending, ProcessNoise, StateMat, BA, BG, MU, N, PSI, TH, THD, V,
+};
 use crate::real::Real;
 use crate::rotation::{dcm, exp_so3, nlerp, quat_exp, quat_log, right_jacobian};
 use crate::strapdown::{Increments, NavState, Strapdown};
@@ -227,7 +229,8 @@ impl<T: Real> Engine<T> {
     /// A new engine; it initializes the slave solution from the first master message.
     pub fn new(cfg: EngineConfig<T>) -> Result<Self, EngineError> {
         let period_ok = cfg.filter_period_s > 0.0 && cfg.filter_period_s.is_finite();
-        let flex_ok = (cfg.flexure.period_s.to_f64() - cfg.filter_period_s).abs() <= 1e-6 * cfg.filter_period_s;
+        let flex_ok = (cfg.flexure.period_s.to_f64() - cfg.filter_period_s).abs()
+            <= 1e-6 * cfg.filter_period_s;
         if !(period_ok && flex_ok && cfg.gate_sigma > T::zero()) {
             return Err(EngineError::BadConfig);
         }
@@ -324,7 +327,8 @@ impl<T: Real> Engine<T> {
     pub fn estimates(&self) -> Estimates<T> {
         let x = self.kf.state();
         let block = |b: usize| Vector3::new(x[b], x[b + 1], x[b + 2]);
-        let sig = |b: usize| Vector3::new(self.kf.sigma(b), self.kf.sigma(b + 1), self.kf.sigma(b + 2));
+        let sig =
+            |b: usize| Vector3::new(self.kf.sigma(b), self.kf.sigma(b + 1), self.kf.sigma(b + 2));
         Estimates {
             t: self.last_update_t,
             gyro_bias: self.gyro_bias + block(BG),
@@ -348,7 +352,11 @@ impl<T: Real> Engine<T> {
         if !finite {
             return Err(EngineError::NonFinite);
         }
-        let newest_queued = self.pending.back().map(|m| m.t).or(self.prev_master.map(|p| p.t));
+        let newest_queued = self
+            .pending
+            .back()
+            .map(|m| m.t)
+            .or(self.prev_master.map(|p| p.t));
         if newest_queued.is_some_and(|t| msg.t <= t) {
             self.counters.master_out_of_order += 1;
             return Err(EngineError::MasterOutOfOrder);
@@ -371,7 +379,12 @@ impl<T: Real> Engine<T> {
     /// Integrates one IMU sample, runs the filter's time update when a period has
     /// elapsed, and matches any master message whose time has been reached.
     pub fn push_imu(&mut self, s: ImuIncrement<T>) -> Result<StepReports<T>, EngineError> {
-        if !(s.t.is_finite() && s.dtheta_b.iter().chain(s.dv_b.iter()).all(|v| v.is_finite())) {
+        if !(s.t.is_finite()
+            && s.dtheta_b
+                .iter()
+                .chain(s.dv_b.iter())
+                .all(|v| v.is_finite()))
+        {
             return Err(EngineError::NonFinite);
         }
         let Some(t_prev) = self.last_imu_t.replace(s.t) else {
@@ -430,7 +443,9 @@ impl<T: Real> Engine<T> {
         if t + 1e-6 * period < ep.next_t || ep.dt <= 0.0 {
             return;
         }
-        let Some(nav) = self.strapdown.as_ref().map(|s| s.nav) else { return };
+        let Some(nav) = self.strapdown.as_ref().map(|s| s.nav) else {
+            return;
+        };
         let dtt = T::of(ep.dt);
         let means = IntervalMeans {
             f_b: ep.dv / dtt,
@@ -448,7 +463,13 @@ impl<T: Real> Engine<T> {
         if next <= t {
             next = t + period;
         }
-        self.epoch = Some(Epoch { next_t: next, q_start: nav.q_b_n, dtheta: Vector3::zeros(), dv: Vector3::zeros(), dt: 0.0 });
+        self.epoch = Some(Epoch {
+            next_t: next,
+            q_start: nav.q_b_n,
+            dtheta: Vector3::zeros(),
+            dv: Vector3::zeros(),
+            dt: 0.0,
+        });
     }
 
     fn process_pending(&mut self) -> StepReports<T> {
@@ -471,7 +492,11 @@ impl<T: Real> Engine<T> {
                 Err(AlignError::TooOld) => self.counters.master_stale += 1,
                 Err(AlignError::NotYet) => {}
             }
-            self.prev_master = Some(PrevMaster { t: msg.t, q_bm_n: msg.q_bm_n, w_ib_bm: msg.w_ib_bm });
+            self.prev_master = Some(PrevMaster {
+                t: msg.t,
+                q_bm_n: msg.q_bm_n,
+                w_ib_bm: msg.w_ib_bm,
+            });
         }
         reports
     }
@@ -489,7 +514,12 @@ impl<T: Real> Engine<T> {
             v_n: msg.v_n + lever_v,
             pos: earth::offset_position(&msg.pos, &(c_bm_n * r0)),
         };
-        let raw: Vec<Snapshot<T>, ALIGN_DEPTH> = self.buffer.iter().filter(|s| s.t > msg.t).copied().collect();
+        let raw: Vec<Snapshot<T>, ALIGN_DEPTH> = self
+            .buffer
+            .iter()
+            .filter(|s| s.t > msg.t)
+            .copied()
+            .collect();
         self.buffer.clear();
         let mut sd = Strapdown::new(nav);
         let start = Snapshot {
@@ -506,14 +536,23 @@ impl<T: Real> Engine<T> {
         for s in raw.iter() {
             // The interval straddling the start contributes its part after msg.t.
             let dt = s.t - t_prev;
-            let frac = T::of(if s.dt > 0.0 { (dt / s.dt).clamp(0.0, 1.0) } else { 0.0 });
+            let frac = T::of(if s.dt > 0.0 {
+                (dt / s.dt).clamp(0.0, 1.0)
+            } else {
+                0.0
+            });
             let dtt = T::of(dt);
             sd.step(&Increments {
                 dtheta_b: (s.dtheta_raw_b * frac) - self.gyro_bias * dtt,
                 dv_b: (s.dv_raw_b * frac) - self.accel_bias * dtt,
                 dt: dtt,
             });
-            self.buffer.push(Snapshot { q_b_n: sd.nav.q_b_n, v_n: sd.nav.v_n, pos: sd.nav.pos, ..*s });
+            self.buffer.push(Snapshot {
+                q_b_n: sd.nav.q_b_n,
+                v_n: sd.nav.v_n,
+                pos: sd.nav.pos,
+                ..*s
+            });
             t_prev = s.t;
         }
         self.strapdown = Some(sd);
@@ -524,7 +563,11 @@ impl<T: Real> Engine<T> {
             dv: Vector3::zeros(),
             dt: t_prev - msg.t,
         });
-        self.prev_master = Some(PrevMaster { t: msg.t, q_bm_n: msg.q_bm_n, w_ib_bm: msg.w_ib_bm });
+        self.prev_master = Some(PrevMaster {
+            t: msg.t,
+            q_bm_n: msg.q_bm_n,
+            w_ib_bm: msg.w_ib_bm,
+        });
         self.last_update_t = msg.t;
     }
 
@@ -550,7 +593,10 @@ impl<T: Real> Engine<T> {
     fn match_master(&mut self, msg: &MasterNav<T>) -> Result<MatchReport<T>, AlignError> {
         let slave = self.buffer.at(msg.t)?;
         let c_bm_n = dcm(&msg.q_bm_n);
-        let mut report = MatchReport { t: msg.t, ..MatchReport::default() };
+        let mut report = MatchReport {
+            t: msg.t,
+            ..MatchReport::default()
+        };
         let gate = self.cfg.gate_sigma;
         let jr = right_jacobian(&self.misalignment);
         let m = self.cfg.matching;
@@ -560,25 +606,39 @@ impl<T: Real> Engine<T> {
             let r0 = self.cfg.lever_arm_m;
             let z = model::velocity_residual(&slave.v_n, &msg.v_n, &c_bm_n, &w_eb, &r0);
             let r_bend = self.cfg.bending.matrix(&r0);
-            let rows = model::velocity_rows(&c_bm_n, &w_eb, self.cfg.dynamic_lever_arm.then_some(&r_bend));
-            let r = self.cfg.measurement_noise.velocity_mps * self.cfg.measurement_noise.velocity_mps;
+            let rows = model::velocity_rows(
+                &c_bm_n,
+                &w_eb,
+                self.cfg.dynamic_lever_arm.then_some(&r_bend),
+            );
+            let r =
+                self.cfg.measurement_noise.velocity_mps * self.cfg.measurement_noise.velocity_mps;
             report.velocity = Some(self.update3(&rows, &z, r, gate));
         }
         if m.attitude {
             let z = model::attitude_residual(&self.misalignment, &c_bm_n, &dcm(&slave.q_b_n));
             let rows = model::attitude_rows(&jr);
-            let r = self.cfg.measurement_noise.attitude_rad * self.cfg.measurement_noise.attitude_rad;
+            let r =
+                self.cfg.measurement_noise.attitude_rad * self.cfg.measurement_noise.attitude_rad;
             report.attitude = Some(self.update3(&rows, &z, r, gate));
         }
         if m.angular_rate {
             if let (Some(w_now), Some(prev)) = (msg.w_ib_bm, self.prev_master) {
-                if let (Some(w_prev), true) = (prev.w_ib_bm, msg.t - prev.t <= 2.5 * self.cfg.filter_period_s) {
+                if let (Some(w_prev), true) = (
+                    prev.w_ib_bm,
+                    msg.t - prev.t <= 2.5 * self.cfg.filter_period_s,
+                ) {
                     if let Ok(w_s_raw) = self.buffer.mean_raw_rate(prev.t, msg.t) {
                         let w_m_mean = (w_prev + w_now) * T::of(0.5);
                         let w_m_bs = exp_so3(&self.misalignment).transpose() * w_m_mean;
-                        let z = model::rate_residual(&(w_s_raw - self.gyro_bias), &self.misalignment, &w_m_mean);
+                        let z = model::rate_residual(
+                            &(w_s_raw - self.gyro_bias),
+                            &self.misalignment,
+                            &w_m_mean,
+                        );
                         let rows = model::rate_rows(&w_m_bs, &jr);
-                        let r = self.cfg.measurement_noise.rate_radps * self.cfg.measurement_noise.rate_radps;
+                        let r = self.cfg.measurement_noise.rate_radps
+                            * self.cfg.measurement_noise.rate_radps;
                         report.angular_rate = Some(self.update3(&rows, &z, r, gate));
                     }
                 }
@@ -589,8 +649,19 @@ impl<T: Real> Engine<T> {
         Ok(report)
     }
 
-    fn update3(&mut self, rows: &model::Rows<T>, z: &Vector3<T>, r: T, gate: T) -> [ScalarUpdate<T>; 3] {
-        let mut out = [ScalarUpdate { innovation: T::zero(), variance: T::zero(), test_ratio: T::zero(), accepted: false }; 3];
+    fn update3(
+        &mut self,
+        rows: &model::Rows<T>,
+        z: &Vector3<T>,
+        r: T,
+        gate: T,
+    ) -> [ScalarUpdate<T>; 3] {
+        let mut out = [ScalarUpdate {
+            innovation: T::zero(),
+            variance: T::zero(),
+            test_ratio: T::zero(),
+            accepted: false,
+        }; 3];
         for (k, (row, slot)) in rows.iter().zip(out.iter_mut()).enumerate() {
             *slot = self.kf.update_scalar(row, z[k], r, gate);
         }
@@ -607,8 +678,9 @@ impl<T: Real> Engine<T> {
         self.accel_bias += block(BA);
         self.misalignment += block(MU);
         if let Some(sd) = self.strapdown.as_mut() {
-            sd.nav.v_n -= dv;
-            sd.nav.q_b_n = sd.nav.q_b_n * quat_exp(&(-psi));
+            // Compensated like the strapdown's own steps (a small ψ rounded into the
+            // f32 quaternion would be lost systematically).
+            sd.correct(&dv, &psi);
         }
         self.buffer.correct(&dv, &psi);
         self.kf.reset_states(V..TH);

@@ -81,19 +81,22 @@ impl<T: Real> ArAxis<T> {
     pub fn from_gauss_markov(omega_n: T, zeta: T, sigma_theta_rad: T, t: T) -> Self {
         let one = T::one();
         let r = (-zeta * omega_n * t).exp();
-        let a1;
-        if zeta < one {
+        let a1 = if zeta < one {
             let wd = omega_n * (one - zeta * zeta).sqrt();
-            a1 = T::of(2.0) * r * (wd * t).cos();
+            T::of(2.0) * r * (wd * t).cos()
         } else {
             let wd = omega_n * (zeta * zeta - one).sqrt();
-            a1 = T::of(2.0) * r * (wd * t).cosh();
-        }
+            T::of(2.0) * r * (wd * t).cosh()
+        };
         let a2 = -r * r;
         // Invert the AR(2) variance formula for σ_η.
         let g0_per_s2 = (one - a2) / ((one + a2) * ((one - a2) * (one - a2) - a1 * a1));
         let sigma = sigma_theta_rad / g0_per_s2.sqrt();
-        Self { a1, a2, sigma_rad: sigma }
+        Self {
+            a1,
+            a2,
+            sigma_rad: sigma,
+        }
     }
 }
 
@@ -103,7 +106,11 @@ mod tests {
 
     #[test]
     fn transition_matches_ar_recursion() {
-        let ax = ArAxis { a1: 1.9_f64, a2: -0.92, sigma_rad: 0.0 };
+        let ax = ArAxis {
+            a1: 1.9_f64,
+            a2: -0.92,
+            sigma_rad: 0.0,
+        };
         let t = 0.01;
         let (th_prev, th) = (0.3, 0.5);
         let x = Vector2::new(th, (th - th_prev) / t);
@@ -127,7 +134,19 @@ mod tests {
 
     #[test]
     fn non_stationary_models_have_no_stationary_covariance() {
-        assert!(ArAxis { a1: 1.0_f64, a2: 0.0, sigma_rad: 1.0 }.stationary_covariance(0.01).is_none());
-        assert!(ArAxis { a1: 0.5_f64, a2: 0.6, sigma_rad: 1.0 }.stationary_covariance(0.01).is_none());
+        assert!(ArAxis {
+            a1: 1.0_f64,
+            a2: 0.0,
+            sigma_rad: 1.0
+        }
+        .stationary_covariance(0.01)
+        .is_none());
+        assert!(ArAxis {
+            a1: 0.5_f64,
+            a2: 0.6,
+            sigma_rad: 1.0
+        }
+        .stationary_covariance(0.01)
+        .is_none());
     }
 }

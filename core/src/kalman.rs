@@ -68,7 +68,13 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             }
         });
         let ps = SMatrix::<T, N, N>::from_fn(|i, j| p0[(i, j)] / (scale[i] * scale[j]));
-        Self { xs: SVector::zeros(), ps, scale, floor: variance_floor, health: Health::default() }
+        Self {
+            xs: SVector::zeros(),
+            ps,
+            scale,
+            floor: variance_floor,
+            health: Health::default(),
+        }
     }
 
     /// State estimate in physical units.
@@ -147,7 +153,8 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         let mut p_new = SMatrix::<T, N, N>::zeros();
         for i in 0..N {
             for j in i..N {
-                let v = sparse_row_dot(j, &|k| a[(i, k)]) + q[(i, j)] / (self.scale[i] * self.scale[j]);
+                let v =
+                    sparse_row_dot(j, &|k| a[(i, k)]) + q[(i, j)] / (self.scale[i] * self.scale[j]);
                 p_new[(i, j)] = v;
                 p_new[(j, i)] = v;
             }
@@ -168,7 +175,12 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         let ph = self.ps * hs;
         let s = hs.dot(&ph) + r;
         let innovation = z - hs.dot(&self.xs);
-        let refused = ScalarUpdate { innovation, variance: s, test_ratio: T::zero(), accepted: false };
+        let refused = ScalarUpdate {
+            innovation,
+            variance: s,
+            test_ratio: T::zero(),
+            accepted: false,
+        };
         if !(z.is_finite() && r.is_finite() && s.is_finite() && innovation.is_finite()) {
             self.health.non_finite += 1;
             return refused;
@@ -181,8 +193,12 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         if test_ratio > T::one() {
             self.health.gated += 1;
             self.health.gated_streak += 1;
-            self.health.max_gated_streak = self.health.max_gated_streak.max(self.health.gated_streak);
-            return ScalarUpdate { test_ratio, ..refused };
+            self.health.max_gated_streak =
+                self.health.max_gated_streak.max(self.health.gated_streak);
+            return ScalarUpdate {
+                test_ratio,
+                ..refused
+            };
         }
         self.health.gated_streak = 0;
         let k = ph / s;
@@ -197,7 +213,12 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         }
         self.clamp_variances();
         self.health.updates += 1;
-        ScalarUpdate { innovation, variance: s, test_ratio, accepted: true }
+        ScalarUpdate {
+            innovation,
+            variance: s,
+            test_ratio,
+            accepted: true,
+        }
     }
 
     fn clamp_variances(&mut self) {
@@ -263,7 +284,10 @@ mod tests {
         let u = kf.update_scalar(&Vector2::new(1.0, 0.0), f32::NAN, 1.0, 5.0);
         assert!(!u.accepted);
         assert_eq!(kf.health.non_finite, 1);
-        kf.predict(&Matrix2::new(f32::INFINITY, 0.0, 0.0, 1.0), &Matrix2::zeros());
+        kf.predict(
+            &Matrix2::new(f32::INFINITY, 0.0, 0.0, 1.0),
+            &Matrix2::zeros(),
+        );
         assert_eq!(kf.health.non_finite, 2);
         assert_eq!(kf.covariance(), Matrix2::identity());
     }

@@ -6,16 +6,25 @@
 //! scalar first, `q_b^n` rotating body vectors into `n`.
 #![no_std]
 #![deny(unsafe_code)]
-#![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing))]
+#![cfg_attr(
+    test,
+    allow(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::indexing_slicing
+    )
+)]
 
-pub mod real;
-pub mod earth;
-pub mod rotation;
-pub mod strapdown;
-pub mod stats;
-pub mod ident;
-pub mod flexure;
-pub mod kalman;
-pub mod model;
 pub mod align;
+pub mod earth;
 pub mod engine;
+pub mod flexure;
+pub mod ident;
+pub mod kalman;
+pub mod mat;
+pub mod model;
+pub mod real;
+pub mod rotation;
+pub mod stats;
+pub mod strapdown;

@@ -21,6 +21,7 @@
 
 use crate::earth::{self, Position};
 use crate::flexure::FlexureModel;
+use crate::mat;
 use crate::real::Real;
 use crate::rotation::skew;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
@@ -80,7 +81,12 @@ pub struct ProcessNoise<T> {
     pub misalignment_rw: T,
 }
 
-fn put<T: Real, const R: usize, const C: usize>(m: &mut SMatrix<T, R, C>, r: usize, c: usize, b: &Matrix3<T>) {
+fn put<T: Real, const R: usize, const C: usize>(
+    m: &mut SMatrix<T, R, C>,
+    r: usize,
+    c: usize,
+    b: &Matrix3<T>,
+) {
     m.fixed_view_mut::<3, 3>(r, c).copy_from(b);
 }
 
@@ -108,22 +114,23 @@ pub fn nav_dynamics<T: Real>(m: &IntervalMeans<T>) -> SMatrix<T, NAV, NAV> {
 pub fn transition<T: Real>(m: &IntervalMeans<T>, flex: &FlexureModel<T>, t: T) -> StateMat<T> {
     let ft = nav_dynamics(m) * t;
     let ft2 = ft * ft;
-    let phi_nav = SMatrix::<T, NAV, NAV>::identity() + ft + ft2 * T::of(0.5) + ft2 * ft * T::of(1.0 / 6.0);
+    let phi_nav =
+        SMatrix::<T, NAV, NAV>::identity() + ft + ft2 * T::of(0.5) + ft2 * ft * T::of(1.0 / 6.0);
     let mut phi = StateMat::<T>::zeros();
     phi.fixed_view_mut::<NAV, NAV>(0, 0).copy_from(&phi_nav);
     for (axis, ar) in flex.axes.iter().enumerate() {
         let a = ar.transition(flex.period_s);
-        let (i, j) = (TH + axis, THD + axis);
-        phi[(i, i)] = a[(0, 0)];
-        phi[(i, j)] = a[(0, 1)];
-        phi[(j, i)] = a[(1, 0)];
-        phi[(j, j)] = a[(1, 1)];
+        mat::set_pair(&mut phi, TH + axis, THD + axis, &a);
     }
     phi
 }
 
 /// Discrete process noise Q over one filter period `t` (s).
-pub fn process_noise<T: Real>(noise: &ProcessNoise<T>, flex: &FlexureModel<T>, t: T) -> StateMat<T> {
+pub fn process_noise<T: Real>(
+    noise: &ProcessNoise<T>,
+    flex: &FlexureModel<T>,
+    t: T,
+) -> StateMat<T> {
     let mut q = StateMat::<T>::zeros();
     let diag = [
         (V, noise.accel_vrw),
@@ -134,17 +141,13 @@ pub fn process_noise<T: Real>(noise: &ProcessNoise<T>, flex: &FlexureModel<T>, t
     ];
     for (block, density) in diag {
         for k in 0..3 {
-            q[(block + k, block + k)] = density * density * t;
+            mat::set(&mut q, block + k, block + k, density * density * t);
         }
     }
     for (axis, ar) in flex.axes.iter().enumerate() {
         let g = ar.noise_gain(flex.period_s);
-        let s2 = ar.sigma_rad * ar.sigma_rad;
-        let (i, j) = (TH + axis, THD + axis);
-        q[(i, i)] = g[0] * g[0] * s2;
-        q[(i, j)] = g[0] * g[1] * s2;
-        q[(j, i)] = g[0] * g[1] * s2;
-        q[(j, j)] = g[1] * g[1] * s2;
+        let qb = g * g.transpose() * (ar.sigma_rad * ar.sigma_rad);
+        mat::set_pair(&mut q, TH + axis, THD + axis, &qb);
     }
     q
 }
@@ -157,7 +160,9 @@ fn rows_from_blocks<T: Real>(blocks: &[(usize, Matrix3<T>)]) -> Rows<T> {
     for (axis, row) in rows.iter_mut().enumerate() {
         for (offset, b) in blocks {
             for k in 0..3 {
-                row[offset + k] = b[(axis, k)];
+                if let Some(e) = row.get_mut(offset + k) {
+                    *e = mat::get(b, axis, k);
+                }
             }
         }
     }
@@ -169,7 +174,11 @@ fn rows_from_blocks<T: Real>(blocks: &[(usize, Matrix3<T>)]) -> Rows<T> {
 /// `c_bm_n`: master attitude; `w_eb_bm`: master body rate relative to the Earth (rad/s,
 /// master body frame); `r_flex`: the matrix R of `r = r0 + R θ` (m/rad, master body
 /// frame), or `None` to leave the dynamic lever arm out (the paper's baseline).
-pub fn velocity_rows<T: Real>(c_bm_n: &Matrix3<T>, w_eb_bm: &Vector3<T>, r_flex: Option<&Matrix3<T>>) -> Rows<T> {
+pub fn velocity_rows<T: Real>(
+    c_bm_n: &Matrix3<T>,
+    w_eb_bm: &Vector3<T>,
+    r_flex: Option<&Matrix3<T>>,
+) -> Rows<T> {
     match r_flex {
         Some(r) => rows_from_blocks(&[
             (V, Matrix3::identity()),
@@ -231,12 +240,22 @@ pub fn velocity_residual<T: Real>(
 }
 
 /// Nonlinear attitude-matching residual (rad, slave body): `Log(Exp(−μ̂) C_bm^nᵀ Ĉ_bs^n)`.
-pub fn attitude_residual<T: Real>(mu_hat: &Vector3<T>, c_bm_n: &Matrix3<T>, c_bs_n_hat: &Matrix3<T>) -> Vector3<T> {
-    crate::rotation::log_so3(&(crate::rotation::exp_so3(&(-mu_hat)) * c_bm_n.transpose() * c_bs_n_hat))
+pub fn attitude_residual<T: Real>(
+    mu_hat: &Vector3<T>,
+    c_bm_n: &Matrix3<T>,
+    c_bs_n_hat: &Matrix3<T>,
+) -> Vector3<T> {
+    crate::rotation::log_so3(
+        &(crate::rotation::exp_so3(&(-mu_hat)) * c_bm_n.transpose() * c_bs_n_hat),
+    )
 }
 
 /// Nonlinear angular-rate-matching residual (rad/s, slave body): the slave's
 /// bias-corrected mean rate minus the master's mean rate carried through `Exp(μ̂)`.
-pub fn rate_residual<T: Real>(w_slave_corrected_bs: &Vector3<T>, mu_hat: &Vector3<T>, w_master_bm: &Vector3<T>) -> Vector3<T> {
+pub fn rate_residual<T: Real>(
+    w_slave_corrected_bs: &Vector3<T>,
+    mu_hat: &Vector3<T>,
+    w_master_bm: &Vector3<T>,
+) -> Vector3<T> {
     w_slave_corrected_bs - crate::rotation::exp_so3(mu_hat).transpose() * w_master_bm
 }

@@ -66,7 +66,10 @@ pub fn right_jacobian<T: Real>(phi: &Vector3<T>) -> Matrix3<T> {
     let a = phi.norm();
     let k = skew(phi);
     let (c1, c2) = if a < T::of(1e-3) {
-        (T::of(0.5) - a * a / T::of(24.0), T::one() / T::of(6.0) - a * a / T::of(120.0))
+        (
+            T::of(0.5) - a * a / T::of(24.0),
+            T::one() / T::of(6.0) - a * a / T::of(120.0),
+        )
     } else {
         let a2 = a * a;
         ((T::one() - a.cos()) / a2, (a - a.sin()) / (a2 * a))
@@ -102,9 +105,18 @@ mod tests {
 
     #[test]
     fn exp_log_round_trip_over_angles() {
-        for a in [v(0.0, 0.0, 0.0), v(1e-9, -2e-9, 0.0), v(0.3, -0.2, 0.1), v(3.0, 0.1, -0.2), v(1e-5, 0.0, 0.0)] {
+        for a in [
+            v(0.0, 0.0, 0.0),
+            v(1e-9, -2e-9, 0.0),
+            v(0.3, -0.2, 0.1),
+            v(3.0, 0.1, -0.2),
+            v(1e-5, 0.0, 0.0),
+        ] {
             let back = log_so3(&exp_so3(&a));
-            assert!((back - a).norm() < 1e-12 * (1.0 + a.norm()), "{a:?} -> {back:?}");
+            assert!(
+                (back - a).norm() < 1e-12 * (1.0 + a.norm()),
+                "{a:?} -> {back:?}"
+            );
             assert!((quat_log(&quat_exp(&a)) - a).norm() < 1e-12);
         }
     }
@@ -115,7 +127,10 @@ mod tests {
         let q = quat_exp(&v(0.0, 0.0, core::f64::consts::FRAC_PI_2));
         let y = q * v(1.0, 0.0, 0.0);
         assert!((y - v(0.0, 1.0, 0.0)).norm() < 1e-15);
-        assert!((exp_so3(&v(0.0, 0.0, core::f64::consts::FRAC_PI_2)) * v(1.0, 0.0, 0.0) - y).norm() < 1e-15);
+        assert!(
+            (exp_so3(&v(0.0, 0.0, core::f64::consts::FRAC_PI_2)) * v(1.0, 0.0, 0.0) - y).norm()
+                < 1e-15
+        );
     }
 
     #[test]

@@ -37,14 +37,23 @@ fn case() -> Case {
         start: NavState {
             q_b_n: quat_exp(&Vector3::new(0.2, -0.1, 0.7)),
             v_n: Vector3::new(200.0, 150.0, 3.0),
-            pos: Position { lat_rad: 1.1, lon_rad: 2.0, height_m: 300.0 },
+            pos: Position {
+                lat_rad: 1.1,
+                lon_rad: 2.0,
+                height_m: 300.0,
+            },
         },
     }
 }
 
 /// Runs `steps` IMU intervals of `dt` from `start` with errors `x` (δv, ψ, ·, ε, ∇)
 /// and returns the error state against the unperturbed run.
-fn propagate(c: &Case, x: &SVector<f64, NAV>, steps: usize, dt: f64) -> (SVector<f64, NAV>, NavState<f64>) {
+fn propagate(
+    c: &Case,
+    x: &SVector<f64, NAV>,
+    steps: usize,
+    dt: f64,
+) -> (SVector<f64, NAV>, NavState<f64>) {
     // Returns the error state and the true state at the end of the period.
     let block = |b: usize| Vector3::new(x[b], x[b + 1], x[b + 2]);
     let mut truth = Strapdown::new(c.start);
@@ -54,9 +63,17 @@ fn propagate(c: &Case, x: &SVector<f64, NAV>, steps: usize, dt: f64) -> (SVector
         pos: c.start.pos,
     });
     for _ in 0..steps {
-        let inc = Increments { dtheta_b: c.w_b * dt, dv_b: c.f_b * dt, dt };
+        let inc = Increments {
+            dtheta_b: c.w_b * dt,
+            dv_b: c.f_b * dt,
+            dt,
+        };
         truth.step(&inc);
-        est.step(&Increments { dtheta_b: inc.dtheta_b + block(model::BG) * dt, dv_b: inc.dv_b + block(model::BA) * dt, dt });
+        est.step(&Increments {
+            dtheta_b: inc.dtheta_b + block(model::BG) * dt,
+            dv_b: inc.dv_b + block(model::BA) * dt,
+            dt,
+        });
     }
     let mut e = *x;
     let dv = est.nav.v_n - truth.nav.v_n;
@@ -73,7 +90,9 @@ fn check(steps: usize, dt: f64) {
     let t = steps as f64 * dt;
     // Perturbation sizes per block: small enough that second-order terms vanish in the
     // central difference, large enough to stay above f64 rounding.
-    let h = [1e-2, 1e-2, 1e-2, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-3, 1e-3, 1e-3];
+    let h = [
+        1e-2, 1e-2, 1e-2, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-3, 1e-3, 1e-3,
+    ];
     let mut fd = SMatrix::<f64, NAV, NAV>::zeros();
     let mut end = c.start;
     for j in 0..NAV {
@@ -85,8 +104,21 @@ fn check(steps: usize, dt: f64) {
         fd.set_column(j, &((ep - em) / (2.0 * h[j])));
     }
     let mid = nlerp(&c.start.q_b_n, &end.q_b_n, 0.5);
-    let means = IntervalMeans { f_b: c.f_b, w_ib_b: c.w_b, c_b_n: dcm(&mid), v_n: end.v_n, pos: end.pos };
-    let flex = FlexureModel { axes: [ArAxis { a1: 0.0, a2: 0.0, sigma_rad: 0.0 }; 3], period_s: t };
+    let means = IntervalMeans {
+        f_b: c.f_b,
+        w_ib_b: c.w_b,
+        c_b_n: dcm(&mid),
+        v_n: end.v_n,
+        pos: end.pos,
+    };
+    let flex = FlexureModel {
+        axes: [ArAxis {
+            a1: 0.0,
+            a2: 0.0,
+            sigma_rad: 0.0,
+        }; 3],
+        period_s: t,
+    };
     let phi = model::transition(&means, &flex, t);
     let names = ["dv", "psi", "mu", "bg", "ba"];
     for i in 0..NAV {

@@ -4,7 +4,11 @@ use clap::{Parser, Subcommand};
 use flexcal_sim::cmd;
 
 #[derive(Parser)]
-#[command(name = "flexcal", version, about = "Slave INS calibration against a master INS, with flexure and dynamic lever arm")]
+#[command(
+    name = "flexcal",
+    version,
+    about = "Slave INS calibration against a master INS, with flexure and dynamic lever arm"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -18,6 +22,8 @@ enum Command {
     Calibrate(cmd::calibrate::Args),
     /// Monte Carlo runs of a scenario: RMS errors, mean σ, NEES with its χ² band.
     Montecarlo(cmd::montecarlo::Args),
+    /// The paper's figures 4 and 5: bias estimates with and without dynamic lever-arm compensation.
+    PaperFigures(cmd::paper_figures::Args),
     /// Identify an AR flexure model (order by AIC/BIC, Ljung-Box check).
     Identify(cmd::identify::Args),
 }
@@ -29,6 +35,7 @@ fn main() -> std::process::ExitCode {
         Command::Calibrate(a) => cmd::calibrate::run(&a),
         Command::Montecarlo(a) => cmd::montecarlo::run(&a),
         Command::Identify(a) => cmd::identify::run(&a),
+        Command::PaperFigures(a) => cmd::paper_figures::run(&a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

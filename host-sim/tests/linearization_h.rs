@@ -42,9 +42,18 @@ fn setup(bending: LeverBending) -> Setup {
     };
     let r0 = Vector3::new(10.0, 4.0, 15.0);
     Setup {
-        fx: Fixed { mu: Vector3::new(0.01, -0.005, 0.02), r0, r_bend: bending.matrix(&r0), v_m: motion.velocity_n() },
+        fx: Fixed {
+            mu: Vector3::new(0.01, -0.005, 0.02),
+            r0,
+            r_bend: bending.matrix(&r0),
+            v_m: motion.velocity_n(),
+        },
         master: motion.attitude(1.3),
-        pos: Position { lat_rad: 0.65, lon_rad: 2.1, height_m: 10.0 },
+        pos: Position {
+            lat_rad: 0.65,
+            lon_rad: 2.1,
+            height_m: 10.0,
+        },
         b_g: Vector3::new(1e-6, -2e-6, 1.5e-6),
     }
 }
@@ -108,7 +117,9 @@ fn check(bending: LeverBending) {
             for axis in 0..3 {
                 let fd = (zp[ch][axis] - zm[ch][axis]) / (2.0 * h);
                 let model_v = channel_rows[axis][j];
-                let block_max = (0..3).map(|k| channel_rows[axis][j / 3 * 3 + k].abs()).fold(0.0, f64::max);
+                let block_max = (0..3)
+                    .map(|k| channel_rows[axis][j / 3 * 3 + k].abs())
+                    .fold(0.0, f64::max);
                 let tol = 1e-4 * block_max + 1e-9;
                 assert!(
                     (fd - model_v).abs() <= tol,

@@ -99,9 +99,22 @@ impl CalibConfig {
         let arw = sc.slave_imu.gyro_arw_deg_rh.to_radians() / 60.0;
         let (flexure_ar, flexure_sigma_rad) = match sc.flexure {
             FlexureSpec::None => ([0.0, 0.0], 1e-9),
-            FlexureSpec::Ar { coefficients, sigma_deg, .. } => (coefficients, sigma_deg.to_radians()),
-            FlexureSpec::GaussMarkov { sigma_arcmin, omega_rad_s, damping } => {
-                let ar = ArAxis::from_gauss_markov(omega_rad_s, damping, (sigma_arcmin / 60.0).to_radians(), t);
+            FlexureSpec::Ar {
+                coefficients,
+                sigma_deg,
+                ..
+            } => (coefficients, sigma_deg.to_radians()),
+            FlexureSpec::GaussMarkov {
+                sigma_arcmin,
+                omega_rad_s,
+                damping,
+            } => {
+                let ar = ArAxis::from_gauss_markov(
+                    omega_rad_s,
+                    damping,
+                    (sigma_arcmin / 60.0).to_radians(),
+                    t,
+                );
                 ([ar.a1, ar.a2], ar.sigma_rad)
             }
         };
@@ -133,9 +146,12 @@ impl CalibConfig {
 
     /// Reads a configuration file.
     pub fn load(path: &std::path::Path) -> Result<Self, String> {
-        let text = std::fs::read_to_string(path).map_err(|e| format!("config `{}`: {e}", path.display()))?;
-        let c: Self = toml::from_str(&text).map_err(|e| format!("config `{}`: {e}", path.display()))?;
-        c.validate().map_err(|e| format!("config `{}`: {e}", path.display()))?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("config `{}`: {e}", path.display()))?;
+        let c: Self =
+            toml::from_str(&text).map_err(|e| format!("config `{}`: {e}", path.display()))?;
+        c.validate()
+            .map_err(|e| format!("config `{}`: {e}", path.display()))?;
         Ok(c)
     }
 
@@ -143,7 +159,9 @@ impl CalibConfig {
     pub fn validate(&self) -> Result<(), String> {
         for m in &self.matching {
             if !["velocity", "attitude", "angular_rate"].contains(&m.as_str()) {
-                return Err(format!("`matching`: unknown channel `{m}` (velocity, attitude, angular_rate)"));
+                return Err(format!(
+                    "`matching`: unknown channel `{m}` (velocity, attitude, angular_rate)"
+                ));
             }
         }
         let positive = [
@@ -168,13 +186,21 @@ impl CalibConfig {
     /// The matching channels as flags.
     pub fn matching_flags(&self) -> Matching {
         let has = |n: &str| self.matching.iter().any(|m| m == n);
-        Matching { velocity: has("velocity"), attitude: has("attitude"), angular_rate: has("angular_rate") }
+        Matching {
+            velocity: has("velocity"),
+            attitude: has("attitude"),
+            angular_rate: has("angular_rate"),
+        }
     }
 
     /// The engine configuration in precision `T`, for a recording with lever arm `r0_m`.
     pub fn engine_config<T: Real>(&self, r0_m: [f64; 3]) -> EngineConfig<T> {
         let c = T::of;
-        let ar = ArAxis { a1: c(self.flexure_ar[0]), a2: c(self.flexure_ar[1]), sigma_rad: c(self.flexure_sigma_rad) };
+        let ar = ArAxis {
+            a1: c(self.flexure_ar[0]),
+            a2: c(self.flexure_ar[1]),
+            sigma_rad: c(self.flexure_sigma_rad),
+        };
         EngineConfig {
             filter_period_s: self.filter_period_s,
             matching: self.matching_flags(),
@@ -184,7 +210,10 @@ impl CalibConfig {
                 sim::Bending::UniformArc => LeverBending::UniformArc,
             },
             dynamic_lever_arm: self.dynamic_lever_arm,
-            flexure: FlexureModel { axes: [ar; 3], period_s: c(self.filter_period_s) },
+            flexure: FlexureModel {
+                axes: [ar; 3],
+                period_s: c(self.filter_period_s),
+            },
             process_noise: ProcessNoise {
                 accel_vrw: c(self.accel_vrw_mps_rs),
                 gyro_arw: c(self.gyro_arw_rad_rs),

@@ -98,7 +98,12 @@ pub struct CalibResult {
 impl CalibResult {
     /// Mean normalized innovation squared over accepted scalar innovations (expect 1).
     pub fn nis_mean(&self) -> f64 {
-        let acc: Vec<f64> = self.innovations.iter().filter(|i| i.accepted).map(|i| i.value * i.value / i.variance).collect();
+        let acc: Vec<f64> = self
+            .innovations
+            .iter()
+            .filter(|i| i.accepted)
+            .map(|i| i.value * i.value / i.variance)
+            .collect();
         if acc.is_empty() {
             0.0
         } else {
@@ -149,16 +154,32 @@ fn record_report<T: Real>(r: &MatchReport<T>, out: &mut Vec<Innovation>) {
 }
 
 /// Calibrates a recording with a configuration, in precision `T`.
-pub fn run_generic<T: Real>(rec: &Recording, cfg: &CalibConfig, precision: Precision) -> Result<CalibResult, String> {
+pub fn run_generic<T: Real>(
+    rec: &Recording,
+    cfg: &CalibConfig,
+    precision: Precision,
+) -> Result<CalibResult, String> {
     let mut engine = Engine::<T>::new(cfg.engine_config::<T>(rec.meta.lever_arm_m))
         .map_err(|e| format!("engine configuration refused: {e:?}"))?;
     let mut rows = Vec::with_capacity(rec.master.len());
     let mut innovations = Vec::new();
-    let mut cov = CovarianceCheck { min_diagonal: f64::INFINITY, ..Default::default() };
-    let start = ImuIncrement { t: rec.imu_t0, dtheta_b: Vector3::zeros(), dv_b: Vector3::zeros() };
-    engine.push_imu(start).map_err(|e| format!("IMU start at t = {}: {e:?}", rec.imu_t0))?;
+    let mut cov = CovarianceCheck {
+        min_diagonal: f64::INFINITY,
+        ..Default::default()
+    };
+    let start = ImuIncrement {
+        t: rec.imu_t0,
+        dtheta_b: Vector3::zeros(),
+        dv_b: Vector3::zeros(),
+    };
+    engine
+        .push_imu(start)
+        .map_err(|e| format!("IMU start at t = {}: {e:?}", rec.imu_t0))?;
     let mut masters = rec.master.iter().peekable();
-    let mut handle = |engine: &Engine<T>, reports: &[MatchReport<T>], rows: &mut Vec<EstimateRow>, cov: &mut CovarianceCheck| {
+    let mut handle = |engine: &Engine<T>,
+                      reports: &[MatchReport<T>],
+                      rows: &mut Vec<EstimateRow>,
+                      cov: &mut CovarianceCheck| {
         for r in reports {
             record_report(r, &mut innovations);
             let e = engine.estimates();
@@ -178,14 +199,26 @@ pub fn run_generic<T: Real>(rec: &Recording, cfg: &CalibConfig, precision: Preci
             cov.max_asymmetry = cov.max_asymmetry.max((p - p.transpose()).abs().max());
             cov.min_diagonal = cov.min_diagonal.min(p.diagonal().min());
             // Positive definiteness is checked in the engine's own precision.
-            if engine.filter().scaled_covariance().clone().cholesky().is_none() {
+            if engine
+                .filter()
+                .scaled_covariance()
+                .clone()
+                .cholesky()
+                .is_none()
+            {
                 cov.not_positive_definite += 1;
             }
         }
     };
     for s in &rec.imu {
-        let inc = ImuIncrement { t: s.t, dtheta_b: Vector3::from(s.dtheta_rad.map(T::of)), dv_b: Vector3::from(s.dv_mps.map(T::of)) };
-        let reports = engine.push_imu(inc).map_err(|e| format!("IMU sample at t = {}: {e:?}", s.t))?;
+        let inc = ImuIncrement {
+            t: s.t,
+            dtheta_b: Vector3::from(s.dtheta_rad.map(T::of)),
+            dv_b: Vector3::from(s.dv_mps.map(T::of)),
+        };
+        let reports = engine
+            .push_imu(inc)
+            .map_err(|e| format!("IMU sample at t = {}: {e:?}", s.t))?;
         handle(&engine, &reports, &mut rows, &mut cov);
         while let Some(m) = masters.next_if(|m| m.t <= s.t) {
             match engine.push_master(master_nav::<T>(m)) {
@@ -211,7 +244,11 @@ pub fn run_generic<T: Real>(rec: &Recording, cfg: &CalibConfig, precision: Preci
 }
 
 /// Calibrates a recording in the requested precision.
-pub fn run(rec: &Recording, cfg: &CalibConfig, precision: Precision) -> Result<CalibResult, String> {
+pub fn run(
+    rec: &Recording,
+    cfg: &CalibConfig,
+    precision: Precision,
+) -> Result<CalibResult, String> {
     match precision {
         Precision::F64 => run_generic::<f64>(rec, cfg, precision),
         Precision::F32 => run_generic::<f32>(rec, cfg, precision),

@@ -29,7 +29,10 @@ pub struct Args {
 }
 
 /// Resolves the configuration: explicit file, the recording's own, or the default.
-pub fn resolve_config(rec_dir: &Path, explicit: Option<&Path>) -> Result<(CalibConfig, String), String> {
+pub fn resolve_config(
+    rec_dir: &Path,
+    explicit: Option<&Path>,
+) -> Result<(CalibConfig, String), String> {
     if let Some(p) = explicit {
         return Ok((CalibConfig::load(p)?, p.display().to_string()));
     }
@@ -59,22 +62,57 @@ pub fn run(a: &Args) -> Result<(), String> {
         (Some(_), Some(l)) => l.t - rec.imu_t0,
         _ => 0.0,
     };
-    let doc = summary::summary_json(&a.rec_dir.display().to_string(), duration, &cfg, &res, sc.as_ref());
+    let doc = summary::summary_json(
+        &a.rec_dir.display().to_string(),
+        duration,
+        &cfg,
+        &res,
+        sc.as_ref(),
+    );
     let text = serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())?;
     let path = a.out.join("summary.json");
     std::fs::write(&path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
-    summary::write_estimates_csv(&a.out.join("estimates.csv"), &res.rows).map_err(|e| e.to_string())?;
+    summary::write_estimates_csv(&a.out.join("estimates.csv"), &res.rows)
+        .map_err(|e| e.to_string())?;
     let label = a.rec_dir.display().to_string();
-    plots::write_estimate_plots(&a.out, &label, &res.rows, rec.truth.as_ref()).map_err(|e| e.to_string())?;
+    plots::write_estimate_plots(&a.out, &label, &res.rows, rec.truth.as_ref())
+        .map_err(|e| e.to_string())?;
     let last = res.last();
     let dph = 180.0 / std::f64::consts::PI * 3600.0;
-    println!("calibrated {} ({} s, {:?}) -> {}", label, duration, a.precision, a.out.display());
-    println!("  gyro bias  (deg/h): {:?} ± {:?}", last.gyro_bias.map(|v| round(v * dph)), last.gyro_bias_sigma.map(|v| round(v * dph)));
-    println!("  accel bias (mg):    {:?} ± {:?}", last.accel_bias.map(|v| round(v / 9.806_65e-3)), last.accel_bias_sigma.map(|v| round(v / 9.806_65e-3)));
-    println!("  misalignment (deg): {:?} ± {:?}", last.misalignment.map(|v| round(v.to_degrees())), last.misalignment_sigma.map(|v| round(v.to_degrees())));
-    println!("  NIS mean {:.3}, gated {}", res.nis_mean(), res.innovations.iter().filter(|i| !i.accepted).count());
+    println!(
+        "calibrated {} ({} s, {:?}) -> {}",
+        label,
+        duration,
+        a.precision,
+        a.out.display()
+    );
+    println!(
+        "  gyro bias  (deg/h): {:?} ± {:?}",
+        last.gyro_bias.map(|v| round(v * dph)),
+        last.gyro_bias_sigma.map(|v| round(v * dph))
+    );
+    println!(
+        "  accel bias (mg):    {:?} ± {:?}",
+        last.accel_bias.map(|v| round(v / 9.806_65e-3)),
+        last.accel_bias_sigma.map(|v| round(v / 9.806_65e-3))
+    );
+    println!(
+        "  misalignment (deg): {:?} ± {:?}",
+        last.misalignment.map(|v| round(v.to_degrees())),
+        last.misalignment_sigma.map(|v| round(v.to_degrees()))
+    );
+    println!(
+        "  NIS mean {:.3}, gated {}",
+        res.nis_mean(),
+        res.innovations.iter().filter(|i| !i.accepted).count()
+    );
     if let Some(s) = sc {
-        println!("  errors: gyro bias {:?} deg/h, accel bias {:?} mg, NEES {:.2}", s.gyro_bias.map(|v| round(v * dph)), s.accel_bias.map(|v| round(v / 9.806_65e-3)), s.nees_mean);
+        println!(
+            "  errors: gyro bias {:?} deg/h, accel bias {:?} mg, NEES {:.2}",
+            s.gyro_bias.map(|v| round(v * dph)),
+            s.accel_bias.map(|v| round(v / 9.806_65e-3)),
+            s.nees_mean
+        );
     }
     Ok(())
 }

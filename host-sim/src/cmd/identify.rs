@@ -84,6 +84,11 @@ pub struct Args {
     /// `rate-integrated` sequence; 0 disables it.
     #[arg(long, default_value_t = 2.0)]
     pub master_lowpass: f64,
+    /// Cut-off (Hz) of a zero-phase high-pass applied to the `rate-integrated` angle (removes
+    /// the integrated noise's random walk; only for a flexure known to be faster than it);
+    /// 0 disables it.
+    #[arg(long, default_value_t = 0.0)]
+    pub highpass: f64,
     /// Do not remove the mean of the series before fitting.
     #[arg(long)]
     pub no_demean: bool,
@@ -141,12 +146,14 @@ fn write_outputs(a: &Args, json: &Value, fig: &crate::plot::Figure) -> Result<()
     let text = serde_json::to_string_pretty(json).map_err(|e| e.to_string())?;
     std::fs::write(&path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
     let svg = a.out.join("prediction.svg");
-    fig.write(&svg).map_err(|e| format!("{}: {e}", svg.display()))?;
+    fig.write(&svg)
+        .map_err(|e| format!("{}: {e}", svg.display()))?;
     if let Some(extra) = &a.figure {
         if let Some(dir) = extra.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
         }
-        fig.write(extra).map_err(|e| format!("{}: {e}", extra.display()))?;
+        fig.write(extra)
+            .map_err(|e| format!("{}: {e}", extra.display()))?;
     }
     Ok(())
 }
@@ -180,7 +187,10 @@ fn run_series(a: &Args, opts: &IdentifyOptions, file: &Path) -> Result<(), Strin
     );
     let period = a.period.unwrap_or(1.0);
     let y: Vec<f64> = col.values.iter().map(|v| v - rep.mean_removed).collect();
-    let coeffs = rep.selected().map(|r| r.coefficients.clone()).unwrap_or_default();
+    let coeffs = rep
+        .selected()
+        .map(|r| r.coefficients.clone())
+        .unwrap_or_default();
     let pred = one_step_prediction(&y, &coeffs);
     let w = window(y.len());
     let t: Vec<f64> = w.clone().map(|k| k as f64 * period).collect();
@@ -212,6 +222,7 @@ fn run_recording(a: &Args, opts: &IdentifyOptions, dir: &Path) -> Result<(), Str
     };
     let seq_opts = SequenceOptions {
         master_lowpass_hz: a.master_lowpass,
+        highpass_hz: a.highpass,
     };
     let seq = flexure_sequence_with(&rec, a.sequence, period, &seq_opts)?;
     let ax = axis_index(a.axis);
@@ -265,6 +276,7 @@ fn run_recording(a: &Args, opts: &IdentifyOptions, dir: &Path) -> Result<(), Str
     obj.insert("sequence_notes".into(), json!(seq.notes));
     obj.insert("period_s".into(), json!(period));
     obj.insert("master_lowpass_hz".into(), json!(a.master_lowpass));
+    obj.insert("highpass_hz".into(), json!(a.highpass));
     obj.insert("axis".into(), json!(AXES.get(ax).copied().unwrap_or("x")));
     merge(&mut obj, report_json(rep));
     obj.insert("axes".into(), Value::Object(axes_json));
@@ -288,7 +300,10 @@ fn run_recording(a: &Args, opts: &IdentifyOptions, dir: &Path) -> Result<(), Str
                     "{}",
                     table(
                         &r,
-                        &format!("reference: true flexure, axis {}", AXES.get(ax).copied().unwrap_or("x"))
+                        &format!(
+                            "reference: true flexure, axis {}",
+                            AXES.get(ax).copied().unwrap_or("x")
+                        )
                     )
                 );
                 obj.insert("truth_reference".into(), report_json(&r));
@@ -300,24 +315,39 @@ fn run_recording(a: &Args, opts: &IdentifyOptions, dir: &Path) -> Result<(), Str
         if seq.kind.unit() == "rad" {
             obj.insert(
                 "sequence_vs_truth".into(),
-                compare_to_truth(&seq.t, seq.axes.get(ax), truth.as_ref().map(|t| (&t.t, t.axes.get(ax)))),
+                compare_to_truth(
+                    &seq.t,
+                    seq.axes.get(ax),
+                    truth.as_ref().map(|t| (&t.t, t.axes.get(ax))),
+                ),
             );
         }
     }
 
     // Figure: the identified model's one-step prediction of the true flexure (angle sequences
     // with truth), else of the identified sequence itself.
-    let coeffs = rep.selected().map(|r| r.coefficients.clone()).unwrap_or_default();
+    let coeffs = rep
+        .selected()
+        .map(|r| r.coefficients.clone())
+        .unwrap_or_default();
     let axis_name = AXES.get(ax).copied().unwrap_or("x");
     let (t_all, y, label) = match (&truth, &truth_axis, seq.kind.unit() == "rad") {
         (Some(tr), Some(th), true) => {
             let mean = finite_mean(th);
-            (tr.t.clone(), th.iter().map(|v| v - mean).collect::<Vec<f64>>(), format!("true flexure θ{axis_name}"))
+            (
+                tr.t.clone(),
+                th.iter().map(|v| v - mean).collect::<Vec<f64>>(),
+                format!("true flexure θ{axis_name}"),
+            )
         }
         _ => {
             let x = seq.axes.get(ax).cloned().unwrap_or_default();
             let mean = finite_mean(&x);
-            (seq.t.clone(), x.iter().map(|v| v - mean).collect(), format!("{} {axis_name}", seq.kind.name()))
+            (
+                seq.t.clone(),
+                x.iter().map(|v| v - mean).collect(),
+                format!("{} {axis_name}", seq.kind.name()),
+            )
         }
     };
     let pred = one_step_prediction(&y, &coeffs);

@@ -3,6 +3,7 @@
 pub mod calibrate;
 pub mod identify;
 pub mod montecarlo;
+pub mod paper_figures;
 pub mod simulate;
 
 /// The version written into every JSON output as `tool_version`.

@@ -69,7 +69,12 @@ pub struct Aggregate {
 }
 
 /// Runs one seed: simulate, calibrate with the declared model, score.
-pub fn one_run(sc: &Scenario, cfg: &CalibConfig, seed: u64, precision: Precision) -> Result<RunResult, String> {
+pub fn one_run(
+    sc: &Scenario,
+    cfg: &CalibConfig,
+    seed: u64,
+    precision: Precision,
+) -> Result<RunResult, String> {
     let rec = simulate(sc, seed).recording;
     let res = calibrate(&rec, cfg, precision)?;
     let truth = rec.truth.as_ref().ok_or("simulation wrote no truth")?;
@@ -85,7 +90,13 @@ pub fn one_run(sc: &Scenario, cfg: &CalibConfig, seed: u64, precision: Precision
         sigma[3 + k] = last.accel_bias_sigma[k];
         sigma[6 + k] = last.misalignment_sigma[k];
     }
-    Ok(RunResult { seed, error, sigma, nees: s.nees_mean, nis: res.nis_mean() })
+    Ok(RunResult {
+        seed,
+        error,
+        sigma,
+        nees: s.nees_mean,
+        nis: res.nis_mean(),
+    })
 }
 
 /// Aggregates runs.
@@ -102,10 +113,17 @@ pub fn aggregate(runs: &[RunResult]) -> Aggregate {
     let rms = rms.map(f64::sqrt);
     let nees_mean = runs.iter().map(|r| r.nees).sum::<f64>() / n;
     let dof = 9.0 * n;
-    Aggregate { rms, mean_sigma, nees_mean, nees_band: [chi2_quantile(0.025, dof) / n, chi2_quantile(0.975, dof) / n] }
+    Aggregate {
+        rms,
+        mean_sigma,
+        nees_mean,
+        nees_band: [chi2_quantile(0.025, dof) / n, chi2_quantile(0.975, dof) / n],
+    }
 }
 
-const NAMES: [&str; 9] = ["bgx", "bgy", "bgz", "bax", "bay", "baz", "mux", "muy", "muz"];
+const NAMES: [&str; 9] = [
+    "bgx", "bgy", "bgz", "bax", "bay", "baz", "mux", "muy", "muz",
+];
 
 /// Runs `flexcal montecarlo`.
 pub fn run(a: &Args) -> Result<(), String> {
@@ -117,7 +135,10 @@ pub fn run(a: &Args) -> Result<(), String> {
     let mut cfg = CalibConfig::declared_for(&sc, 1.0 / sc.master.rate_hz);
     cfg.dynamic_lever_arm = !a.no_dynamic_lever_arm;
     let bar = ProgressBar::new(a.runs as u64);
-    bar.set_style(ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {elapsed} elapsed, ETA {eta}").map_err(|e| e.to_string())?);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {elapsed} elapsed, ETA {eta}")
+            .map_err(|e| e.to_string())?,
+    );
     let results: Result<Vec<RunResult>, String> = (0..a.runs as u64)
         .into_par_iter()
         .map(|i| {
@@ -148,25 +169,60 @@ pub fn run(a: &Args) -> Result<(), String> {
         "per_run": runs.iter().map(|r| json!({"seed": r.seed, "nees": r.nees, "nis_mean": r.nis, "error": r.error, "sigma": r.sigma})).collect::<Vec<_>>(),
     });
     let path = a.out.join("montecarlo.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())? + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
+    std::fs::write(
+        &path,
+        serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())? + "\n",
+    )
+    .map_err(|e| format!("{}: {e}", path.display()))?;
     let x: Vec<f64> = runs.iter().map(|r| r.seed as f64).collect();
     let fig = Figure {
-        title: format!("Monte Carlo `{}`: final NEES of the 9 calibrated states per run", sc.name),
+        title: format!(
+            "Monte Carlo `{}`: final NEES of the 9 calibrated states per run",
+            sc.name
+        ),
         x_label: "seed".into(),
         panels: vec![Panel {
-            title: format!("mean NEES {:.2}, 95% band of the mean [{:.2}, {:.2}]", agg.nees_mean, agg.nees_band[0], agg.nees_band[1]),
+            title: format!(
+                "mean NEES {:.2}, 95% band of the mean [{:.2}, {:.2}]",
+                agg.nees_mean, agg.nees_band[0], agg.nees_band[1]
+            ),
             y_label: "NEES".into(),
-            series: vec![Series { name: "NEES".into(), x: x.clone(), y: runs.iter().map(|r| r.nees).collect() }],
-            bands: vec![Band { name: "band of the mean".into(), x: x.clone(), lo: vec![agg.nees_band[0]; x.len()], hi: vec![agg.nees_band[1]; x.len()] }],
+            series: vec![Series {
+                name: "NEES".into(),
+                x: x.clone(),
+                y: runs.iter().map(|r| r.nees).collect(),
+            }],
+            bands: vec![Band {
+                name: "band of the mean".into(),
+                x: x.clone(),
+                lo: vec![agg.nees_band[0]; x.len()],
+                hi: vec![agg.nees_band[1]; x.len()],
+            }],
             dashed: vec![],
         }],
     };
-    fig.write(&a.out.join("nees.svg")).map_err(|e| e.to_string())?;
-    println!("Monte Carlo `{}`: {} runs of {} s ({:?})", sc.name, runs.len(), sc.duration_s, a.precision);
+    fig.write(&a.out.join("nees.svg"))
+        .map_err(|e| e.to_string())?;
+    println!(
+        "Monte Carlo `{}`: {} runs of {} s ({:?})",
+        sc.name,
+        runs.len(),
+        sc.duration_s,
+        a.precision
+    );
     println!("  state   rms error     mean sigma    ratio");
     for i in 0..9 {
-        println!("  {:5} {:12.4e}  {:12.4e}  {:6.3}", NAMES[i], agg.rms[i], agg.mean_sigma[i], agg.rms[i] / agg.mean_sigma[i]);
+        println!(
+            "  {:5} {:12.4e}  {:12.4e}  {:6.3}",
+            NAMES[i],
+            agg.rms[i],
+            agg.mean_sigma[i],
+            agg.rms[i] / agg.mean_sigma[i]
+        );
     }
-    println!("  mean NEES {:.3} (95% band [{:.3}, {:.3}])", agg.nees_mean, agg.nees_band[0], agg.nees_band[1]);
+    println!(
+        "  mean NEES {:.3} (95% band [{:.3}, {:.3}])",
+        agg.nees_mean, agg.nees_band[0], agg.nees_band[1]
+    );
     Ok(())
 }

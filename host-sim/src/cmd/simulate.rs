@@ -35,8 +35,14 @@ pub fn run(a: &Args) -> Result<(), String> {
     let declared = CalibConfig::declared_for(&sc, 1.0 / sc.master.rate_hz);
     let text = toml::to_string(&declared).map_err(|e| e.to_string())?;
     let cfg_path = a.out.join("calibrate.toml");
-    std::fs::write(&cfg_path, format!("# The model scenario `{}` declares (written by flexcal simulate).\n{text}", sc.name))
-        .map_err(|e| format!("{}: {e}", cfg_path.display()))?;
+    std::fs::write(
+        &cfg_path,
+        format!(
+            "# The model scenario `{}` declares (written by flexcal simulate).\n{text}",
+            sc.name
+        ),
+    )
+    .map_err(|e| format!("{}: {e}", cfg_path.display()))?;
     println!(
         "simulated `{}` (seed {}, {} s): {} IMU samples, {} master messages -> {}",
         sc.name,

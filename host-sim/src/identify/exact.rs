@@ -123,7 +123,12 @@ fn quadratic_and_logdet(segments: &[&[f64]], r: &[f64]) -> Option<(f64, f64, usi
             let j = t.min(p);
             let phi = predictors.get(j)?;
             let past = seg.get(..t)?;
-            let pred: f64 = past.iter().rev().zip(phi.iter()).map(|(&x, &a)| a * x).sum();
+            let pred: f64 = past
+                .iter()
+                .rev()
+                .zip(phi.iter())
+                .map(|(&x, &a)| a * x)
+                .sum();
             let e = ut - pred;
             let vj = *v.get(j)?;
             quad += e * e / vj;
@@ -138,7 +143,7 @@ fn quadratic_and_logdet(segments: &[&[f64]], r: &[f64]) -> Option<(f64, f64, usi
 /// partial autocorrelations `r`, and its `σ̂²`; `None` if not stationary, no data, or degenerate.
 pub fn exact_log_likelihood_pacf(segments: &[&[f64]], r: &[f64]) -> Option<(f64, f64)> {
     let (quad, logdet, n) = quadratic_and_logdet(segments, r)?;
-    if n == 0 || !(quad > 0.0) || !quad.is_finite() || !logdet.is_finite() {
+    if n == 0 || !quad.is_finite() || quad <= 0.0 || !logdet.is_finite() {
         return None;
     }
     let nf = n as f64;

@@ -277,10 +277,14 @@ fn ljung_box_segments(
     }
     let n: usize = res.iter().map(Vec::len).sum();
     if lags <= fitted {
-        return Err(format!("Ljung-Box: {lags} lags do not exceed the {fitted} fitted parameters"));
+        return Err(format!(
+            "Ljung-Box: {lags} lags do not exceed the {fitted} fitted parameters"
+        ));
     }
     if n <= lags {
-        return Err(format!("Ljung-Box: {n} residuals, not more than {lags} lags"));
+        return Err(format!(
+            "Ljung-Box: {n} residuals, not more than {lags} lags"
+        ));
     }
     let c0: f64 = res.iter().flatten().map(|e| e * e).sum();
     if !(c0 > 0.0 && c0.is_finite()) {
@@ -291,7 +295,12 @@ fn ljung_box_segments(
     for i in 1..=lags {
         let ci: f64 = res
             .iter()
-            .map(|s| s.iter().zip(s.iter().skip(i)).map(|(a, b)| a * b).sum::<f64>())
+            .map(|s| {
+                s.iter()
+                    .zip(s.iter().skip(i))
+                    .map(|(a, b)| a * b)
+                    .sum::<f64>()
+            })
             .sum();
         let eta = ci / c0;
         sum += eta * eta / (nf - i as f64);
@@ -321,7 +330,10 @@ pub fn identify_series(x: &[f64], opts: &IdentifyOptions) -> Result<IdentifyRepo
         ));
     }
     if !(opts.alpha > 0.0 && opts.alpha < 1.0) {
-        return Err(format!("alpha {} must lie strictly between 0 and 1", opts.alpha));
+        return Err(format!(
+            "alpha {} must lie strictly between 0 and 1",
+            opts.alpha
+        ));
     }
     if opts.lags <= opts.max_order {
         return Err(format!(

@@ -95,12 +95,9 @@ pub fn table(r: &IdentifyReport, title: &str) -> String {
         "p", "sigma2", "AIC", "BIC", "LB Q", "white"
     );
     for o in &r.orders {
-        let (q, w) = o
-            .ljung_box
-            .as_ref()
-            .map_or(("-".to_string(), "-"), |lb| {
-                (format!("{:.2}", lb.q), if lb.white { "yes" } else { "no" })
-            });
+        let (q, w) = o.ljung_box.as_ref().map_or(("-".to_string(), "-"), |lb| {
+            (format!("{:.2}", lb.q), if lb.white { "yes" } else { "no" })
+        });
         let mark = if o.p == r.selected_order { "*" } else { " " };
         let coeffs: Vec<String> = o.coefficients.iter().map(|c| format!("{c:.6}")).collect();
         let _ = writeln!(
@@ -138,7 +135,9 @@ pub fn table(r: &IdentifyReport, title: &str) -> String {
             let coeffs: Vec<String> = e.coefficients.iter().map(|c| format!("{c:.6}")).collect();
             let start = e
                 .start_log_likelihood
-                .map_or("undefined (not stationary)".to_string(), |v| format!("{v:.4}"));
+                .map_or("undefined (not stationary)".to_string(), |v| {
+                    format!("{v:.4}")
+                });
             let _ = writeln!(
                 s,
                 "  exact ML (p = {}): a = [{}], sigma2 = {:.6e}, log-likelihood {:.4} (conditional LS: {})",

@@ -96,7 +96,9 @@ struct Grid {
 fn grid(rec: &Recording, period_s: f64) -> Result<Grid, String> {
     let rate = rec.meta.master_rate_hz;
     if !(period_s.is_finite() && period_s > 0.0) {
-        return Err(format!("period {period_s} s: must be a positive number of seconds"));
+        return Err(format!(
+            "period {period_s} s: must be a positive number of seconds"
+        ));
     }
     if !(rate.is_finite() && rate > 0.0) {
         return Err(format!("master rate {rate} Hz is not usable"));
@@ -247,6 +249,13 @@ pub struct SequenceOptions {
     /// it leaks into the sequence. Periods within half a filter length of the ends or of a gap
     /// become gaps.
     pub master_lowpass_hz: f64,
+    /// Cut-off (Hz) of an optional zero-phase high-pass applied to the integrated angle
+    /// ([`SequenceKind::RateIntegrated`]); 0 (the default) keeps only the linear detrend.
+    /// The integrated sensor noise is a random walk, strongest at low frequency; when the
+    /// flexure is known to be broadband (the paper's eq. 32 is nearly white at 100 Hz) a
+    /// high-pass well below its band removes that walk. It distorts any flexure content near
+    /// or below the cut-off, so it must not be used on a flexure as slow as the ship's motion.
+    pub highpass_hz: f64,
 }
 
 impl Default for SequenceOptions {
@@ -254,6 +263,7 @@ impl Default for SequenceOptions {
     fn default() -> Self {
         Self {
             master_lowpass_hz: 2.0,
+            highpass_hz: 0.0,
         }
     }
 }
@@ -276,7 +286,8 @@ fn lowpass_taps(fc: f64) -> Vec<f64> {
                 (tau * fc * m).sin() / (std::f64::consts::PI * m)
             };
             let x = i as f64 / (len - 1) as f64;
-            let w = a0 - a1 * (tau * x).cos() + a2 * (2.0 * tau * x).cos() - a3 * (3.0 * tau * x).cos();
+            let w =
+                a0 - a1 * (tau * x).cos() + a2 * (2.0 * tau * x).cos() - a3 * (3.0 * tau * x).cos();
             sinc * w
         })
         .collect();
@@ -294,8 +305,9 @@ fn filter_symmetric(x: &[f64], taps: &[f64]) -> Vec<f64> {
             if k < half || k + half >= x.len() {
                 return f64::NAN;
             }
-            x.get(k - half..=k + half)
-                .map_or(f64::NAN, |w| w.iter().zip(taps.iter()).map(|(a, b)| a * b).sum())
+            x.get(k - half..=k + half).map_or(f64::NAN, |w| {
+                w.iter().zip(taps.iter()).map(|(a, b)| a * b).sum()
+            })
         })
         .collect()
 }
@@ -439,7 +451,11 @@ pub fn flexure_sequence_with(
                 .truth
                 .as_ref()
                 .ok_or("sequence `truth` needs a recording with truth.csv (a simulated one)")?;
-            let mut axes = [vec![f64::NAN; len], vec![f64::NAN; len], vec![f64::NAN; len]];
+            let mut axes = [
+                vec![f64::NAN; len],
+                vec![f64::NAN; len],
+                vec![f64::NAN; len],
+            ];
             for (a, name) in ["thx", "thy", "thz"].iter().enumerate() {
                 let col = truth
                     .column(name)
@@ -463,7 +479,11 @@ pub fn flexure_sequence_with(
         SequenceKind::GyroDifference => {
             let inc = slave_increments(rec, &g);
             let rate: Vec<Vector3<f64>> = inc.iter().map(|(s, dt)| s / *dt).collect();
-            let mut axes = [vec![f64::NAN; len], vec![f64::NAN; len], vec![f64::NAN; len]];
+            let mut axes = [
+                vec![f64::NAN; len],
+                vec![f64::NAN; len],
+                vec![f64::NAN; len],
+            ];
             for k in 2..len {
                 if let (Some(w1), Some(w0)) = (rate.get(k), rate.get(k - 1)) {
                     let d = w1 - w0;
@@ -486,7 +506,7 @@ pub fn flexure_sequence_with(
             notes.push(source.to_string());
             let fc = opts.master_lowpass_hz * period_s;
             if opts.master_lowpass_hz > 0.0 {
-                if !(fc < 0.5) {
+                if fc.is_nan() || fc >= 0.5 {
                     return Err(format!(
                         "master low-pass cut-off {} Hz is not below the Nyquist frequency {} Hz",
                         opts.master_lowpass_hz,
@@ -500,7 +520,10 @@ pub fn flexure_sequence_with(
                 });
                 for (k, w) in wm.iter_mut().enumerate() {
                     *w = Vector3::from_fn(|a, _| {
-                        cols.get(a).and_then(|c| c.get(k)).copied().unwrap_or(f64::NAN)
+                        cols.get(a)
+                            .and_then(|c| c.get(k))
+                            .copied()
+                            .unwrap_or(f64::NAN)
                     });
                 }
                 notes.push(format!(
@@ -520,8 +543,10 @@ pub fn flexure_sequence_with(
                 .zip(wm.iter())
                 .map(|((s, dt), w)| s / *dt - w)
                 .collect();
-            let regressors: Vec<Vector4<f64>> =
-                wm.iter().map(|w| Vector4::new(1.0, w.x, w.y, w.z)).collect();
+            let regressors: Vec<Vector4<f64>> = wm
+                .iter()
+                .map(|w| Vector4::new(1.0, w.x, w.y, w.z))
+                .collect();
             let pass = |dw: &[Vector3<f64>]| -> [Vec<f64>; 3] {
                 [0, 1, 2].map(|a| {
                     let y: Vec<f64> = dw.iter().map(|v| v[a]).collect();
@@ -535,15 +560,46 @@ pub fn flexure_sequence_with(
                 .map(|k| {
                     let th = |i: usize| {
                         Vector3::from_fn(|a, _| {
-                            first.get(a).and_then(|v| v.get(i)).copied().unwrap_or(f64::NAN)
+                            first
+                                .get(a)
+                                .and_then(|v| v.get(i))
+                                .copied()
+                                .unwrap_or(f64::NAN)
                         })
                     };
-                    let mid = if k >= 1 { (th(k) + th(k - 1)) * 0.5 } else { th(k) };
+                    let mid = if k >= 1 {
+                        (th(k) + th(k - 1)) * 0.5
+                    } else {
+                        th(k)
+                    };
                     let w = wm.get(k).copied().unwrap_or(Vector3::repeat(f64::NAN));
                     dw.get(k).copied().unwrap_or(Vector3::repeat(f64::NAN)) - w.cross(&mid)
                 })
                 .collect();
-            pass(&corrected)
+            let mut axes = pass(&corrected);
+            if opts.highpass_hz > 0.0 {
+                let fh = opts.highpass_hz * period_s;
+                if fh.is_nan() || fh >= 0.5 {
+                    return Err(format!(
+                        "high-pass cut-off {} Hz is not below the Nyquist frequency {} Hz",
+                        opts.highpass_hz,
+                        0.5 / period_s
+                    ));
+                }
+                let taps = lowpass_taps(fh);
+                for ax in axes.iter_mut() {
+                    let low = filter_symmetric(ax, &taps);
+                    for (v, l) in ax.iter_mut().zip(low.iter()) {
+                        *v -= l;
+                    }
+                }
+                notes.push(format!(
+                    "angle high-passed at {} Hz (zero-phase FIR, {} taps)",
+                    opts.highpass_hz,
+                    taps.len()
+                ));
+            }
+            axes
         }
     };
     // Trim leading and trailing gaps common to all axes.

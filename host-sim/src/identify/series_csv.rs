@@ -20,8 +20,8 @@ pub struct SeriesColumn {
 /// exactly one column.
 pub fn read_series_csv(path: &Path, column: Option<&str>) -> Result<SeriesColumn, String> {
     let text = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let text = String::from_utf8(text)
-        .map_err(|e| format!("{}: not UTF-8 text ({e})", path.display()))?;
+    let text =
+        String::from_utf8(text).map_err(|e| format!("{}: not UTF-8 text ({e})", path.display()))?;
     parse_series_csv(&path.display().to_string(), &text, column)
 }
 

@@ -9,13 +9,23 @@ use std::io::Write;
 use std::path::Path;
 
 /// The `summary.json` document of one calibration.
-pub fn summary_json(recording: &str, duration_s: f64, cfg: &CalibConfig, res: &CalibResult, score: Option<&Score>) -> Value {
+pub fn summary_json(
+    recording: &str,
+    duration_s: f64,
+    cfg: &CalibConfig,
+    res: &CalibResult,
+    score: Option<&Score>,
+) -> Value {
     let last = res.last();
     let gated: usize = res.innovations.iter().filter(|i| !i.accepted).count();
     let accepted = res.innovations.len() - gated;
     let matching: Vec<&str> = crate::calib::run::CHANNELS
         .iter()
-        .zip([cfg.matching_flags().velocity, cfg.matching_flags().attitude, cfg.matching_flags().angular_rate])
+        .zip([
+            cfg.matching_flags().velocity,
+            cfg.matching_flags().attitude,
+            cfg.matching_flags().angular_rate,
+        ])
         .filter(|(_, on)| *on)
         .map(|(n, _)| *n)
         .collect();

@@ -20,12 +20,24 @@ impl FlexureTruth {
     pub fn generate(spec: &FlexureSpec, substeps: usize, h: f64, rng: &mut impl Rng) -> Self {
         let mut n = |s: f64| -> f64 { s * rng.sample::<f64, _>(StandardNormal) };
         match *spec {
-            FlexureSpec::None => Self { knots: vec![Vector3::zeros(); 2], knot_steps: substeps.max(1), knot_dt: h * substeps.max(1) as f64 },
-            FlexureSpec::Ar { coefficients: [a1, a2], sigma_deg, period_s } => {
+            FlexureSpec::None => Self {
+                knots: vec![Vector3::zeros(); 2],
+                knot_steps: substeps.max(1),
+                knot_dt: h * substeps.max(1) as f64,
+            },
+            FlexureSpec::Ar {
+                coefficients: [a1, a2],
+                sigma_deg,
+                period_s,
+            } => {
                 let knot_steps = ((period_s / h).round() as usize).max(1);
                 let count = substeps / knot_steps + 2;
                 let sigma = sigma_deg.to_radians();
-                let ar = ArAxis { a1, a2, sigma_rad: sigma };
+                let ar = ArAxis {
+                    a1,
+                    a2,
+                    sigma_rad: sigma,
+                };
                 // Start stationary: (θ_0, θ_{−1}) from the AR(2) stationary covariance.
                 let (g0, g1) = match ar.stationary_covariance(period_s) {
                     Some(c) => (c[(0, 0)], c[(0, 0)] - c[(0, 1)] * period_s),
@@ -49,20 +61,33 @@ impl FlexureTruth {
                     cur = next;
                     knots.push(cur);
                 }
-                Self { knots, knot_steps, knot_dt: knot_steps as f64 * h }
+                Self {
+                    knots,
+                    knot_steps,
+                    knot_dt: knot_steps as f64 * h,
+                }
             }
-            FlexureSpec::GaussMarkov { sigma_arcmin, omega_rad_s: w, damping: z } => {
+            FlexureSpec::GaussMarkov {
+                sigma_arcmin,
+                omega_rad_s: w,
+                damping: z,
+            } => {
                 let sigma = (sigma_arcmin / 60.0).to_radians();
                 // θ̈ = −ω²θ − 2ζω θ̇ + w, stationary var(θ) = q/(4ζω³), var(θ̇) = ω² var(θ).
                 let q = 4.0 * z * w.powi(3) * sigma * sigma;
                 let f = Matrix2::new(0.0, 1.0, -w * w, -2.0 * z * w);
                 let fh = f * h;
-                let phi = Matrix2::identity() + fh + fh * fh / 2.0 + fh * fh * fh / 6.0 + fh * fh * fh * fh / 24.0;
+                let phi = Matrix2::identity()
+                    + fh
+                    + fh * fh / 2.0
+                    + fh * fh * fh / 6.0
+                    + fh * fh * fh * fh / 24.0;
                 let qd = Matrix2::new(h.powi(3) / 3.0, h * h / 2.0, h * h / 2.0, h) * q;
                 let l = qd.cholesky().map(|c| c.l()).unwrap_or_else(Matrix2::zeros);
                 let mut knots = Vec::with_capacity(substeps + 2);
-                let mut states: Vec<nalgebra::Vector2<f64>> =
-                    (0..3).map(|_| nalgebra::Vector2::new(n(sigma), n(sigma * w))).collect();
+                let mut states: Vec<nalgebra::Vector2<f64>> = (0..3)
+                    .map(|_| nalgebra::Vector2::new(n(sigma), n(sigma * w)))
+                    .collect();
                 knots.push(Vector3::from_fn(|i, _| states[i][0]));
                 for _ in 0..substeps + 1 {
                     for s in states.iter_mut() {
@@ -71,7 +96,11 @@ impl FlexureTruth {
                     }
                     knots.push(Vector3::from_fn(|i, _| states[i][0]));
                 }
-                Self { knots, knot_steps: 1, knot_dt: h }
+                Self {
+                    knots,
+                    knot_steps: 1,
+                    knot_dt: h,
+                }
             }
         }
     }
@@ -89,11 +118,18 @@ impl FlexureTruth {
         let (a, b) = (self.knot(k - 1), self.knot(k));
         let rate = (b - a) / self.knot_dt;
         let into = s as f64 + 0.5 - ((k - 1) * self.knot_steps) as f64;
-        (a + rate * (into * self.knot_dt / self.knot_steps as f64), rate)
+        (
+            a + rate * (into * self.knot_dt / self.knot_steps as f64),
+            rate,
+        )
     }
 
     fn knot(&self, k: usize) -> Vector3<f64> {
-        self.knots.get(k).or(self.knots.last()).copied().unwrap_or_else(Vector3::zeros)
+        self.knots
+            .get(k)
+            .or(self.knots.last())
+            .copied()
+            .unwrap_or_else(Vector3::zeros)
     }
 
     /// θ at boundary `s` on knot interval `k` (between knots k−1 and k) and its rate.
@@ -101,6 +137,9 @@ impl FlexureTruth {
         let (a, b) = (self.knot(k - 1), self.knot(k));
         let rate = (b - a) / self.knot_dt;
         let into = s as f64 - ((k - 1) * self.knot_steps) as f64;
-        (a + rate * (into * self.knot_dt / self.knot_steps as f64), rate)
+        (
+            a + rate * (into * self.knot_dt / self.knot_steps as f64),
+            rate,
+        )
     }
 }

@@ -12,8 +12,8 @@ pub mod scenario;
 
 use crate::recording::{ImuOutput, ImuSample, MasterMsg, Recording, RecordingMeta, Site, Truth};
 use flexcal_core::earth::{self, Position};
-use flexcal_core::rotation::{exp_so3, quat_exp, right_jacobian};
 use flexcal_core::model::LeverBending;
+use flexcal_core::rotation::{exp_so3, quat_exp, right_jacobian};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -133,7 +133,10 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
     };
     let mut imu_out = Vec::with_capacity(n_imu);
     let mut master_out = Vec::with_capacity(n_imu / imu_per_master + 1);
-    let truth_names = ["bgx", "bgy", "bgz", "bax", "bay", "baz", "mux", "muy", "muz", "thx", "thy", "thz", "thdx", "thdy", "thdz"];
+    let truth_names = [
+        "bgx", "bgy", "bgz", "bax", "bay", "baz", "mux", "muy", "muz", "thx", "thy", "thz", "thdx",
+        "thdy", "thdz",
+    ];
     let mut truth_t = Vec::new();
     let mut truth_cols: Vec<Vec<f64>> = vec![Vec::new(); truth_names.len()];
 
@@ -144,11 +147,17 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
         (m, th, thd, slave_truth(&fx, &m, pos_m, &th, &thd))
     };
     let (_, _, _, mut prev) = boundary(0, &pos_m);
-    let mut emit_master = |t: f64, m: &motion::MasterAttitude, pos: &Position<f64>, th: &Vector3<f64>, thd: &Vector3<f64>, rng: &mut ChaCha8Rng| {
+    let mut emit_master = |t: f64,
+                           m: &motion::MasterAttitude,
+                           pos: &Position<f64>,
+                           th: &Vector3<f64>,
+                           thd: &Vector3<f64>,
+                           rng: &mut ChaCha8Rng| {
         let w_ie = earth::earth_rate_n(pos.lat_rad);
         let w_en = earth::transport_rate_n(pos, &fx.v_m);
         let w_ib_bm = m.w_nb_bm + m.c_bm_n.transpose() * (w_ie + w_en);
-        let q = UnitQuaternion::from_matrix(&m.c_bm_n) * quat_exp(&gauss3(rng, sc.master.attitude_noise_deg.to_radians()));
+        let q = UnitQuaternion::from_matrix(&m.c_bm_n)
+            * quat_exp(&gauss3(rng, sc.master.attitude_noise_deg.to_radians()));
         let v = fx.v_m + gauss3(rng, sc.master.velocity_noise_mps);
         let w = w_ib_bm + gauss3(rng, sc.master.rate_noise_deg_h * DEG_PER_H);
         master_out.push(MasterMsg {
@@ -200,7 +209,11 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
         let t = i as f64 * imu_dt;
         let dth_meas = gyro_err * dth + bg * imu_dt + gauss3(&mut rng, arw * imu_dt.sqrt());
         let dv_meas = accel_err * dv + ba * imu_dt + gauss3(&mut rng, vrw * imu_dt.sqrt());
-        imu_out.push(ImuSample { t, dtheta_rad: dth_meas.into(), dv_mps: dv_meas.into() });
+        imu_out.push(ImuSample {
+            t,
+            dtheta_rad: dth_meas.into(),
+            dv_mps: dv_meas.into(),
+        });
         if i % imu_per_master == 0 {
             let s = i * SUBSTEPS;
             let m = sc.motion.attitude(t);
@@ -210,17 +223,28 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
     }
     let recording = Recording {
         meta: RecordingMeta {
-            site: Site { lat_deg: sc.site.lat_deg, lon_deg: sc.site.lon_deg, height_m: sc.site.height_m },
+            site: Site {
+                lat_deg: sc.site.lat_deg,
+                lon_deg: sc.site.lon_deg,
+                height_m: sc.site.height_m,
+            },
             lever_arm_m: sc.lever_arm.r0_m,
             slave_rate_hz: sc.slave_imu.rate_hz,
             slave_output: ImuOutput::Increments,
             master_rate_hz: sc.master.rate_hz,
-            notes: Some(format!("simulated by flexcal: scenario `{}`, seed {seed}", sc.name)),
+            notes: Some(format!(
+                "simulated by flexcal: scenario `{}`, seed {seed}",
+                sc.name
+            )),
         },
         imu_t0: 0.0,
         imu: imu_out,
         master: master_out,
-        truth: Some(Truth { names: truth_names.iter().map(|s| s.to_string()).collect(), t: truth_t, columns: truth_cols }),
+        truth: Some(Truth {
+            names: truth_names.iter().map(|s| s.to_string()).collect(),
+            t: truth_t,
+            columns: truth_cols,
+        }),
     };
     SimOutput { recording }
 }

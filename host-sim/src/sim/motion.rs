@@ -46,7 +46,10 @@ impl MotionSpec {
         let w = c.transpose() * b.transpose() * Vector3::new(0.0, 0.0, dyaw)
             + c.transpose() * Vector3::new(dpitch, 0.0, 0.0)
             + Vector3::new(0.0, droll, 0.0);
-        MasterAttitude { c_bm_n: a * b * c, w_nb_bm: w }
+        MasterAttitude {
+            c_bm_n: a * b * c,
+            w_nb_bm: w,
+        }
     }
 
     /// Constant velocity over ground, ENU (m/s), along the mean heading.

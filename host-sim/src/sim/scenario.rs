@@ -173,13 +173,17 @@ impl Scenario {
             "matched" => (MATCHED.to_string(), "built-in `matched`".to_string()),
             path => (
                 std::fs::read_to_string(path).map_err(|e| {
-                    format!("scenario `{path}`: not a built-in ({}) and not a readable file: {e}", BUILT_IN.join(", "))
+                    format!(
+                        "scenario `{path}`: not a built-in ({}) and not a readable file: {e}",
+                        BUILT_IN.join(", ")
+                    )
                 })?,
                 path.to_string(),
             ),
         };
         let s: Scenario = toml::from_str(&text).map_err(|e| format!("scenario {origin}: {e}"))?;
-        s.validate().map_err(|e| format!("scenario {origin}: {e}"))?;
+        s.validate()
+            .map_err(|e| format!("scenario {origin}: {e}"))?;
         Ok(s)
     }
 
@@ -208,7 +212,9 @@ impl Scenario {
         if let FlexureSpec::Ar { period_s, .. } = self.flexure {
             let k = period_s * self.slave_imu.rate_hz;
             if !(period_s > 0.0 && (k - k.round()).abs() < 1e-9 && k >= 1.0) {
-                return Err(format!("`flexure.period_s` ({period_s}) must be a positive multiple of the IMU period"));
+                return Err(format!(
+                    "`flexure.period_s` ({period_s}) must be a positive multiple of the IMU period"
+                ));
             }
         }
         Ok(())
