@@ -7,6 +7,7 @@ use crate::align::{AlignBuffer, AlignError, Snapshot};
 use crate::earth::{self, Position};
 use crate::flexure::FlexureModel;
 use crate::kalman::{Health, Kalman, ScalarUpdate};
+use crate::mat::{self, vget};
 use crate::model::{
     self, IntervalMeans, LeverBending, ProcessNoise, StateMat, BA, BG, MU, N, PSI, TH, THD, V,
 };
@@ -267,22 +268,17 @@ impl<T: Real> Engine<T> {
         ];
         for (b, var) in blocks {
             for k in 0..3 {
-                p[(b + k, b + k)] = var;
+                mat::set(&mut p, b + k, b + k, var);
             }
         }
         for (axis, ar) in cfg.flexure.axes.iter().enumerate() {
             let (i, j) = (TH + axis, THD + axis);
             match ar.stationary_covariance(cfg.flexure.period_s) {
-                Some(c) => {
-                    p[(i, i)] = c[(0, 0)];
-                    p[(i, j)] = c[(0, 1)];
-                    p[(j, i)] = c[(1, 0)];
-                    p[(j, j)] = c[(1, 1)];
-                }
+                Some(c) => mat::set_pair(&mut p, i, j, &c),
                 None => {
                     let t = cfg.flexure.period_s;
-                    p[(i, i)] = sq(s.flexure_rad);
-                    p[(j, j)] = sq(s.flexure_rad / t);
+                    mat::set(&mut p, i, i, sq(s.flexure_rad));
+                    mat::set(&mut p, j, j, sq(s.flexure_rad / t));
                 }
             }
         }
@@ -293,7 +289,9 @@ impl<T: Real> Engine<T> {
         a.fixed_view_mut::<3, 3>(PSI, TH).copy_from(&(-j));
         let mut p = a * p * a.transpose();
         for k in 0..3 {
-            p[(PSI + k, PSI + k)] += sq(cfg.measurement_noise.attitude_rad);
+            let i = PSI + k;
+            let v = mat::get(&p, i, i) + sq(cfg.measurement_noise.attitude_rad);
+            mat::set(&mut p, i, i, v);
         }
         p
     }
@@ -326,7 +324,7 @@ impl<T: Real> Engine<T> {
     /// The current estimates with their standard deviations.
     pub fn estimates(&self) -> Estimates<T> {
         let x = self.kf.state();
-        let block = |b: usize| Vector3::new(x[b], x[b + 1], x[b + 2]);
+        let block = |b: usize| Vector3::new(vget(&x, b), vget(&x, b + 1), vget(&x, b + 2));
         let sig =
             |b: usize| Vector3::new(self.kf.sigma(b), self.kf.sigma(b + 1), self.kf.sigma(b + 2));
         Estimates {
@@ -404,7 +402,7 @@ impl<T: Real> Engine<T> {
                 dv_b: s.dv_b - self.accel_bias * dtt,
                 dt: dtt,
             };
-            sd.step(&inc);
+            sd.step_timed(&inc, dt);
             let nav = sd.nav;
             self.buffer.push(Snapshot {
                 t: s.t,
@@ -542,11 +540,14 @@ impl<T: Real> Engine<T> {
                 0.0
             });
             let dtt = T::of(dt);
-            sd.step(&Increments {
-                dtheta_b: (s.dtheta_raw_b * frac) - self.gyro_bias * dtt,
-                dv_b: (s.dv_raw_b * frac) - self.accel_bias * dtt,
-                dt: dtt,
-            });
+            sd.step_timed(
+                &Increments {
+                    dtheta_b: (s.dtheta_raw_b * frac) - self.gyro_bias * dtt,
+                    dv_b: (s.dv_raw_b * frac) - self.accel_bias * dtt,
+                    dt: dtt,
+                },
+                dt,
+            );
             self.buffer.push(Snapshot {
                 q_b_n: sd.nav.q_b_n,
                 v_n: sd.nav.v_n,
@@ -672,7 +673,7 @@ impl<T: Real> Engine<T> {
     /// go into the nominal solution and their states return to zero. Flexure stays.
     fn feedback(&mut self) {
         let x = self.kf.state();
-        let block = |b: usize| Vector3::new(x[b], x[b + 1], x[b + 2]);
+        let block = |b: usize| Vector3::new(vget(&x, b), vget(&x, b + 1), vget(&x, b + 2));
         let (dv, psi) = (block(V), block(PSI));
         self.gyro_bias += block(BG);
         self.accel_bias += block(BA);

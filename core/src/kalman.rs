@@ -8,6 +8,7 @@
 //! velocity variance of 1e-2 would otherwise share one covariance matrix; scaled,
 //! every diagonal starts at 1, which is what keeps f32 symmetric positive definite.
 
+use crate::mat::{self, vget};
 use crate::real::Real;
 use nalgebra::{SMatrix, SVector};
 
@@ -67,7 +68,9 @@ impl<T: Real, const N: usize> Kalman<T, N> {
                 T::one()
             }
         });
-        let ps = SMatrix::<T, N, N>::from_fn(|i, j| p0[(i, j)] / (scale[i] * scale[j]));
+        let ps = SMatrix::<T, N, N>::from_fn(|i, j| {
+            mat::get(p0, i, j) / (vget(&scale, i) * vget(&scale, j))
+        });
         Self {
             xs: SVector::zeros(),
             ps,
@@ -124,10 +127,10 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         let mut counts = [0usize; N];
         for i in 0..N {
             for j in 0..N {
-                let v = phi[(i, j)];
+                let v = mat::get(phi, i, j);
                 if v != T::zero() {
-                    let vs = v * self.scale[j] / self.scale[i];
-                    phis[(i, j)] = vs;
+                    let vs = v * vget(&self.scale, j) / vget(&self.scale, i);
+                    mat::set(&mut phis, i, j, vs);
                     if let (Some(row), Some(c)) = (cols.get_mut(i), counts.get_mut(i)) {
                         if let Some(slot) = row.get_mut(*c) {
                             *slot = j;
@@ -141,22 +144,23 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             let mut acc = T::zero();
             if let (Some(row), Some(&c)) = (cols.get(i), counts.get(i)) {
                 for &j in row.iter().take(c) {
-                    acc += phis[(i, j)] * v(j);
+                    acc += mat::get(&phis, i, j) * v(j);
                 }
             }
             acc
         };
-        let xs_new = SVector::<T, N>::from_fn(|i, _| sparse_row_dot(i, &|j| self.xs[j]));
+        let xs_new = SVector::<T, N>::from_fn(|i, _| sparse_row_dot(i, &|j| vget(&self.xs, j)));
         // A = Φ_s P_s (row i of A combines the rows of P that row i of Φ touches).
-        let a = SMatrix::<T, N, N>::from_fn(|i, k| sparse_row_dot(i, &|j| self.ps[(j, k)]));
+        let a =
+            SMatrix::<T, N, N>::from_fn(|i, k| sparse_row_dot(i, &|j| mat::get(&self.ps, j, k)));
         // P' = A Φ_sᵀ + Q_s, upper triangle then mirrored.
         let mut p_new = SMatrix::<T, N, N>::zeros();
         for i in 0..N {
             for j in i..N {
-                let v =
-                    sparse_row_dot(j, &|k| a[(i, k)]) + q[(i, j)] / (self.scale[i] * self.scale[j]);
-                p_new[(i, j)] = v;
-                p_new[(j, i)] = v;
+                let v = sparse_row_dot(j, &|k| mat::get(&a, i, k))
+                    + mat::get(q, i, j) / (vget(&self.scale, i) * vget(&self.scale, j));
+                mat::set(&mut p_new, i, j, v);
+                mat::set(&mut p_new, j, i, v);
             }
         }
         if xs_new.iter().chain(p_new.iter()).all(|v| v.is_finite()) {
@@ -206,9 +210,9 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         // P ← P − K (P h)ᵀ, symmetric by construction; one triangle computed.
         for i in 0..N {
             for j in i..N {
-                let v = self.ps[(i, j)] - k[i] * ph[j];
-                self.ps[(i, j)] = v;
-                self.ps[(j, i)] = v;
+                let v = mat::get(&self.ps, i, j) - vget(&k, i) * vget(&ph, j);
+                mat::set(&mut self.ps, i, j, v);
+                mat::set(&mut self.ps, j, i, v);
             }
         }
         self.clamp_variances();
@@ -223,8 +227,8 @@ impl<T: Real, const N: usize> Kalman<T, N> {
 
     fn clamp_variances(&mut self) {
         for i in 0..N {
-            if self.ps[(i, i)] < self.floor {
-                self.ps[(i, i)] = self.floor;
+            if mat::get(&self.ps, i, i) < self.floor {
+                mat::set(&mut self.ps, i, i, self.floor);
                 self.health.variance_clamped += 1;
             }
         }

@@ -37,3 +37,9 @@ pub fn set_pair<T: Real, const R: usize>(
     set(m, j, i, get(b, 1, 0));
     set(m, j, j, get(b, 1, 1));
 }
+
+/// Element `i` of a vector, or zero outside it.
+#[inline]
+pub fn vget<T: Real, const R: usize>(v: &nalgebra::SVector<T, R>, i: usize) -> T {
+    v.get(i).copied().unwrap_or_else(T::zero)
+}

@@ -66,6 +66,56 @@ pub struct Strapdown<T: Real> {
     /// The rounded state the low-order parts belong to: when `nav` is changed from
     /// outside, they no longer apply and are dropped.
     hi: NavState<T>,
+    /// Normal gravity near the current position.
+    gravity: Option<GravityRef>,
+}
+
+/// Normal gravity (m/s²) near a reference position, to f64 accuracy: evaluated in f64
+/// (`earth::normal_gravity`) at the reference, with its gradient, and used within
+/// `LAT_SPAN` / `HEIGHT_SPAN` of it (the linearization error there is < 1e-9 m/s²).
+///
+/// Why not `earth::gravity_n` in `T`: at rest the gravity increment g·dt (0.049 m/s)
+/// cancels the specific force, and in f32 its rounding (the value of g, up to 2e-6 m/s²
+/// depending on latitude, dt and the product) is the same every step — a constant
+/// vertical acceleration error the filter estimates as accelerometer bias. The f64
+/// evaluations cost a few thousand cycles of soft-float on the board, once per
+/// `LAT_SPAN` of travel; per sample, the linear model and the split of g·dt are
+/// ≈ 6 f64 operations.
+#[derive(Clone, Copy, Debug)]
+struct GravityRef {
+    lat: f64,
+    height: f64,
+    g: f64,
+    dg_dlat: f64,
+    dg_dh: f64,
+}
+
+impl GravityRef {
+    /// Latitude range (rad) around the reference (≈ 640 m).
+    const LAT_SPAN: f64 = 1e-4;
+    /// Height range (m) around the reference.
+    const HEIGHT_SPAN: f64 = 100.0;
+
+    fn at(lat: f64, height: f64) -> Self {
+        let g = |la: f64, h: f64| earth::normal_gravity::<f64>(la, h);
+        let (dl, dh) = (Self::LAT_SPAN, Self::HEIGHT_SPAN);
+        Self {
+            lat,
+            height,
+            g: g(lat, height),
+            dg_dlat: (g(lat + dl, height) - g(lat - dl, height)) / (2.0 * dl),
+            dg_dh: (g(lat, height + dh) - g(lat, height - dh)) / (2.0 * dh),
+        }
+    }
+
+    fn covers(&self, lat: f64, height: f64) -> bool {
+        (lat - self.lat).abs() <= Self::LAT_SPAN
+            && (height - self.height).abs() <= Self::HEIGHT_SPAN
+    }
+
+    fn value(&self, lat: f64, height: f64) -> f64 {
+        self.g + self.dg_dlat * (lat - self.lat) + self.dg_dh * (height - self.height)
+    }
 }
 
 /// What rounding left out of the navigation state.
@@ -128,6 +178,7 @@ impl<T: Real> Strapdown<T> {
             prev: None,
             lo: Residuals::zero(),
             hi: nav,
+            gravity: None,
         }
     }
 
@@ -187,6 +238,14 @@ impl<T: Real> Strapdown<T> {
 
     /// Advances the solution by one IMU interval.
     pub fn step(&mut self, inc: &Increments<T>) {
+        self.step_timed(inc, inc.dt.to_f64());
+    }
+
+    /// Advances the solution by one IMU interval whose length the clock gives as
+    /// `dt_s` (f64; `inc.dt` is its rounding to `T`). Only the gravity increment uses
+    /// `dt_s`: in f32 the rounding of 5 ms alone (2e-8) is 2e-7 m/s² of vertical
+    /// acceleration.
+    pub fn step_timed(&mut self, inc: &Increments<T>, dt_s: f64) {
         let twelfth = T::one() / T::of(12.0);
         let half = T::of(0.5);
         let (dth_p, dv_p) = match &self.prev {
@@ -214,17 +273,20 @@ impl<T: Real> Strapdown<T> {
             let c_dv = nav.q_b_n * dv_b0;
             c_dv - zeta.cross(&c_dv) * half
         };
-        let g = earth::gravity_n(&nav.pos);
         let coriolis = (w_ie * T::of(2.0) + w_en).cross(&nav.v_n);
+        // Gravity increment g·dt, split into its rounded value and the rest (see
+        // `GravityRef`): the rest goes straight into the compensation.
+        let lat = nav.pos.lat_rad.to_f64() + lo.pos.x.to_f64();
+        let height = nav.pos.height_m.to_f64() + lo.pos.z.to_f64();
+        if !self.gravity.is_some_and(|r| r.covers(lat, height)) {
+            self.gravity = Some(GravityRef::at(lat, height));
+        }
+        let gdt = self.gravity.map_or(0.0, |r| r.value(lat, height)) * dt_s;
+        let gdt_hi = T::of(gdt);
+        lo.v.z -= T::of(gdt - gdt_hi.to_f64());
         // The net velocity change (specific force and gravity nearly cancel at rest),
         // then one compensated addition.
-        let mut dv_n = dv_sf + (g - coriolis) * inc.dt;
-        // EXPERIMENT-GRAVITY (temporary)
-        dv_n.z += T::of(
-            -earth::normal_gravity::<f64>(nav.pos.lat_rad.to_f64(), nav.pos.height_m.to_f64())
-                * 0.005
-                - (g.z * inc.dt).to_f64(),
-        );
+        let dv_n = dv_sf - coriolis * inc.dt - Vector3::new(T::zero(), T::zero(), gdt_hi);
         add_compensated(&mut self.nav.v_n, &mut lo.v, &dv_n);
         // Position with the mean velocity over the interval.
         let v_mid = nav.v_n + dv_n * half;
@@ -313,7 +375,7 @@ mod tests {
             // Integrate the body rotation only (the Earth terms are tested above).
             q_ref = exact((k + 1) as f64 * dt);
             let phi = dth + sd.prev.map_or(Vector3::zeros(), |p| p.dtheta_b).cross(&dth) / 12.0;
-            sd.nav.q_b_n = sd.nav.q_b_n * quat_exp(&phi);
+            sd.nav.q_b_n *= quat_exp(&phi);
             sd.prev = Some(Increments {
                 dtheta_b: dth,
                 dv_b: Vector3::zeros(),

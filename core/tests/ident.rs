@@ -1,5 +1,12 @@
 //! AR identification and Ljung-Box: recursive vs batch least squares, order selection,
 //! criteria formulas, degenerate series, forgetting, and no panics on any input.
+
+#![allow(
+    clippy::indexing_slicing,
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic
+)]
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

@@ -15,6 +15,13 @@
 //! below the Coriolis (1.5e-4 /s) and transport-rate (3e-5 /s at 200 m/s) terms, so
 //! a sign or frame error in any block fails the test.
 
+#![allow(
+    clippy::indexing_slicing,
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic
+)]
+
 use flexcal_core::earth::Position;
 use flexcal_core::flexure::{ArAxis, FlexureModel};
 use flexcal_core::model::{self, IntervalMeans};

@@ -5,6 +5,13 @@
 //! regularized=True)` for the survival function, and quantiles by bisection of the log of the
 //! relevant tail to 1e-40 relative), then printed to 17 significant digits. The script is
 //! reproduced at the end of this file.
+
+#![allow(
+    clippy::indexing_slicing,
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic
+)]
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,

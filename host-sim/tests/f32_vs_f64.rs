@@ -65,9 +65,9 @@ fn diag_strapdown() {
         };
         s64.step(&inc64);
         s32.step(&inc32);
-        qa64 = qa64 * quat_exp(&dth);
+        qa64 *= quat_exp(&dth);
         qa64.renormalize_fast();
-        qa32 = qa32 * quat_exp(&inc32.dtheta_b);
+        qa32 *= quat_exp(&inc32.dtheta_b);
         qa32.renormalize_fast();
         let z = w_ie * dt;
         qe64 = quat_exp(&(-z)) * qe64;

@@ -732,3 +732,65 @@ fn cli_on_a_recording_reports_every_axis_and_the_truth() {
     ]);
     assert!(!o.status.success() && !stderr(&o).contains("panicked"));
 }
+
+/// Order selection over `runs` simulated AR series: counts of (under, exact, over) for AIC and
+/// BIC, and how often Ljung-Box rejects the AIC-selected model.
+fn selection_rates(a: &[f64], n: usize, runs: u64) -> ([usize; 3], [usize; 3], usize) {
+    let (mut aic, mut bic, mut rejected) = ([0; 3], [0; 3], 0);
+    let p_true = a.len();
+    let o = IdentifyOptions {
+        exact_ml: false,
+        ..IdentifyOptions::default()
+    };
+    for seed in 0..runs {
+        let x = simulate_ar(a, 1.0, n, 1000 + seed);
+        let r = identify_series(&x, &o).unwrap_or_else(|e| panic!("{e}"));
+        let slot = |p: usize| match p.cmp(&p_true) {
+            std::cmp::Ordering::Less => 0,
+            std::cmp::Ordering::Equal => 1,
+            std::cmp::Ordering::Greater => 2,
+        };
+        aic[slot(r.selected_aic)] += 1;
+        bic[slot(r.selected_bic)] += 1;
+        rejected += usize::from(!r.ljung_box.white);
+    }
+    (aic, bic, rejected)
+}
+
+#[test]
+fn aic_overfits_sometimes_bic_rarely() {
+    let (aic, bic, _) = selection_rates(&[1.9939182643, -0.9940179641], 2000, 100);
+    assert!(aic[0] == 0 && aic[2] >= 5 && aic[2] <= 50, "AIC {aic:?}");
+    assert!(bic[0] == 0 && bic[2] <= 5, "BIC {bic:?}");
+}
+
+/// The AIC overfit table of docs/identification.md (run with `--ignored --nocapture`).
+#[test]
+#[ignore]
+fn aic_overfit_rate_table() {
+    let runs = 200;
+    println!("| model | n | AIC under/exact/over | BIC under/exact/over | Ljung-Box rejects (AIC order) |");
+    println!("|---|---|---|---|---|");
+    for (name, a) in [
+        (
+            "matched [1.9939182643, -0.9940179641]",
+            [1.9939182643, -0.9940179641],
+        ),
+        ("paper eq. (32) [0.0035, 0.07]", [0.0035, 0.07]),
+    ] {
+        for n in [6_000, 60_000] {
+            let (aic, bic, rej) = selection_rates(&a, n, runs);
+            let pct = |c: usize| 100.0 * c as f64 / runs as f64;
+            println!(
+                "| {name} | {n} | {:.1} / {:.1} / {:.1} % | {:.1} / {:.1} / {:.1} % | {:.1} % |",
+                pct(aic[0]),
+                pct(aic[1]),
+                pct(aic[2]),
+                pct(bic[0]),
+                pct(bic[1]),
+                pct(bic[2]),
+                pct(rej)
+            );
+        }
+    }
+}

@@ -199,13 +199,7 @@ pub fn run_generic<T: Real>(
             cov.max_asymmetry = cov.max_asymmetry.max((p - p.transpose()).abs().max());
             cov.min_diagonal = cov.min_diagonal.min(p.diagonal().min());
             // Positive definiteness is checked in the engine's own precision.
-            if engine
-                .filter()
-                .scaled_covariance()
-                .clone()
-                .cholesky()
-                .is_none()
-            {
+            if engine.filter().scaled_covariance().cholesky().is_none() {
                 cov.not_positive_definite += 1;
             }
         }
@@ -221,10 +215,9 @@ pub fn run_generic<T: Real>(
             .map_err(|e| format!("IMU sample at t = {}: {e:?}", s.t))?;
         handle(&engine, &reports, &mut rows, &mut cov);
         while let Some(m) = masters.next_if(|m| m.t <= s.t) {
-            match engine.push_master(master_nav::<T>(m)) {
-                Ok(reports) => handle(&engine, &reports, &mut rows, &mut cov),
-                // Refused messages are counted by the engine and reported in the summary.
-                Err(_) => {}
+            // Refused messages are counted by the engine and reported in the summary.
+            if let Ok(reports) = engine.push_master(master_nav::<T>(m)) {
+                handle(&engine, &reports, &mut rows, &mut cov);
             }
         }
     }

@@ -39,7 +39,6 @@ pub fn score(res: &CalibResult, truth: &Truth) -> Option<Score> {
     let e = SVector::<f64, 9>::from_iterator(eg.iter().chain(ea.iter()).chain(em.iter()).copied());
     let nees = res
         .final_cov9
-        .clone()
         .cholesky()
         .map(|c| e.dot(&c.solve(&e)))
         .unwrap_or(f64::NAN);

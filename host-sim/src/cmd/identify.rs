@@ -84,11 +84,6 @@ pub struct Args {
     /// `rate-integrated` sequence; 0 disables it.
     #[arg(long, default_value_t = 2.0)]
     pub master_lowpass: f64,
-    /// Cut-off (Hz) of a zero-phase high-pass applied to the `rate-integrated` angle (removes
-    /// the integrated noise's random walk; only for a flexure known to be faster than it);
-    /// 0 disables it.
-    #[arg(long, default_value_t = 0.0)]
-    pub highpass: f64,
     /// Do not remove the mean of the series before fitting.
     #[arg(long)]
     pub no_demean: bool,
@@ -222,7 +217,6 @@ fn run_recording(a: &Args, opts: &IdentifyOptions, dir: &Path) -> Result<(), Str
     };
     let seq_opts = SequenceOptions {
         master_lowpass_hz: a.master_lowpass,
-        highpass_hz: a.highpass,
     };
     let seq = flexure_sequence_with(&rec, a.sequence, period, &seq_opts)?;
     let ax = axis_index(a.axis);
@@ -276,7 +270,6 @@ fn run_recording(a: &Args, opts: &IdentifyOptions, dir: &Path) -> Result<(), Str
     obj.insert("sequence_notes".into(), json!(seq.notes));
     obj.insert("period_s".into(), json!(period));
     obj.insert("master_lowpass_hz".into(), json!(a.master_lowpass));
-    obj.insert("highpass_hz".into(), json!(a.highpass));
     obj.insert("axis".into(), json!(AXES.get(ax).copied().unwrap_or("x")));
     merge(&mut obj, report_json(rep));
     obj.insert("axes".into(), Value::Object(axes_json));

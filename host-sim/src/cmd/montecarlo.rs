@@ -82,14 +82,12 @@ pub fn one_run(
     let last = res.last();
     let mut error = [0.0; 9];
     let mut sigma = [0.0; 9];
-    for k in 0..3 {
-        error[k] = s.gyro_bias[k];
-        error[3 + k] = s.accel_bias[k];
-        error[6 + k] = s.misalignment[k];
-        sigma[k] = last.gyro_bias_sigma[k];
-        sigma[3 + k] = last.accel_bias_sigma[k];
-        sigma[6 + k] = last.misalignment_sigma[k];
-    }
+    error[0..3].copy_from_slice(&s.gyro_bias);
+    error[3..6].copy_from_slice(&s.accel_bias);
+    error[6..9].copy_from_slice(&s.misalignment);
+    sigma[0..3].copy_from_slice(&last.gyro_bias_sigma);
+    sigma[3..6].copy_from_slice(&last.accel_bias_sigma);
+    sigma[6..9].copy_from_slice(&last.misalignment_sigma);
     Ok(RunResult {
         seed,
         error,
@@ -211,14 +209,8 @@ pub fn run(a: &Args) -> Result<(), String> {
         a.precision
     );
     println!("  state   rms error     mean sigma    ratio");
-    for i in 0..9 {
-        println!(
-            "  {:5} {:12.4e}  {:12.4e}  {:6.3}",
-            NAMES[i],
-            agg.rms[i],
-            agg.mean_sigma[i],
-            agg.rms[i] / agg.mean_sigma[i]
-        );
+    for ((name, rms), sigma) in NAMES.iter().zip(agg.rms).zip(agg.mean_sigma) {
+        println!("  {name:5} {rms:12.4e}  {sigma:12.4e}  {:6.3}", rms / sigma);
     }
     println!(
         "  mean NEES {:.3} (95% band [{:.3}, {:.3}])",

@@ -249,13 +249,6 @@ pub struct SequenceOptions {
     /// it leaks into the sequence. Periods within half a filter length of the ends or of a gap
     /// become gaps.
     pub master_lowpass_hz: f64,
-    /// Cut-off (Hz) of an optional zero-phase high-pass applied to the integrated angle
-    /// ([`SequenceKind::RateIntegrated`]); 0 (the default) keeps only the linear detrend.
-    /// The integrated sensor noise is a random walk, strongest at low frequency; when the
-    /// flexure is known to be broadband (the paper's eq. 32 is nearly white at 100 Hz) a
-    /// high-pass well below its band removes that walk. It distorts any flexure content near
-    /// or below the cut-off, so it must not be used on a flexure as slow as the ship's motion.
-    pub highpass_hz: f64,
 }
 
 impl Default for SequenceOptions {
@@ -263,7 +256,6 @@ impl Default for SequenceOptions {
     fn default() -> Self {
         Self {
             master_lowpass_hz: 2.0,
-            highpass_hz: 0.0,
         }
     }
 }
@@ -576,30 +568,7 @@ pub fn flexure_sequence_with(
                     dw.get(k).copied().unwrap_or(Vector3::repeat(f64::NAN)) - w.cross(&mid)
                 })
                 .collect();
-            let mut axes = pass(&corrected);
-            if opts.highpass_hz > 0.0 {
-                let fh = opts.highpass_hz * period_s;
-                if fh.is_nan() || fh >= 0.5 {
-                    return Err(format!(
-                        "high-pass cut-off {} Hz is not below the Nyquist frequency {} Hz",
-                        opts.highpass_hz,
-                        0.5 / period_s
-                    ));
-                }
-                let taps = lowpass_taps(fh);
-                for ax in axes.iter_mut() {
-                    let low = filter_symmetric(ax, &taps);
-                    for (v, l) in ax.iter_mut().zip(low.iter()) {
-                        *v -= l;
-                    }
-                }
-                notes.push(format!(
-                    "angle high-passed at {} Hz (zero-phase FIR, {} taps)",
-                    opts.highpass_hz,
-                    taps.len()
-                ));
-            }
-            axes
+            pass(&corrected)
         }
     };
     // Trim leading and trailing gaps common to all axes.
