@@ -2,12 +2,6 @@
 //! criteria formulas, degenerate series, forgetting, and no panics on any input.
 
 #![allow(
-    clippy::indexing_slicing,
-    clippy::unwrap_used,
-    clippy::expect_used,
-    clippy::panic
-)]
-#![allow(
     clippy::unwrap_used,
     clippy::expect_used,
     clippy::panic,
