@@ -1,0 +1,249 @@
+//! The engine's handling of its inputs: what it refuses and counts, and that no
+//! sequence of inputs, however malformed, makes it panic or lose finiteness.
+
+#![allow(
+    clippy::indexing_slicing,
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic
+)]
+
+use flexcal_core::earth::{self, Position};
+use flexcal_core::engine::{
+    Engine, EngineConfig, EngineError, ImuIncrement, InitialSigma, MasterNav, Matching,
+    MeasurementNoise, PENDING_DEPTH,
+};
+use flexcal_core::flexure::{ArAxis, FlexureModel};
+use flexcal_core::model::{LeverBending, ProcessNoise};
+use nalgebra::{UnitQuaternion, Vector3};
+use proptest::prelude::*;
+
+const LAT: f64 = 0.6;
+
+fn config() -> EngineConfig<f64> {
+    EngineConfig {
+        filter_period_s: 0.01,
+        matching: Matching {
+            velocity: true,
+            attitude: true,
+            angular_rate: true,
+        },
+        lever_arm_m: Vector3::new(1.0, 2.0, 0.5),
+        bending: LeverBending::UniformArc,
+        dynamic_lever_arm: true,
+        flexure: FlexureModel {
+            axes: [ArAxis {
+                a1: 1.9,
+                a2: -0.91,
+                sigma_rad: 1e-6,
+            }; 3],
+            period_s: 0.01,
+        },
+        process_noise: ProcessNoise {
+            accel_vrw: 1e-4,
+            gyro_arw: 1e-6,
+            gyro_bias_rw: 0.0,
+            accel_bias_rw: 0.0,
+            misalignment_rw: 0.0,
+        },
+        measurement_noise: MeasurementNoise {
+            velocity_mps: 0.01,
+            attitude_rad: 1e-4,
+            rate_radps: 1e-4,
+        },
+        initial_sigma: InitialSigma {
+            velocity_mps: 0.1,
+            misalignment_rad: 0.02,
+            gyro_bias_radps: 5e-6,
+            accel_bias_mps2: 5e-3,
+            flexure_rad: 1e-3,
+        },
+        initial_misalignment_rad: Vector3::zeros(),
+        gate_sigma: 5.0,
+        variance_floor: 1e-9,
+    }
+}
+
+/// A level IMU at rest: specific force +g up, Earth rate.
+fn imu_at(t: f64, dt: f64) -> ImuIncrement<f64> {
+    let g = earth::normal_gravity(LAT, 0.0);
+    ImuIncrement {
+        t,
+        dtheta_b: earth::earth_rate_n(LAT) * dt,
+        dv_b: Vector3::new(0.0, 0.0, g) * dt,
+    }
+}
+
+fn master_at(t: f64) -> MasterNav<f64> {
+    MasterNav {
+        t,
+        q_bm_n: UnitQuaternion::identity(),
+        v_n: Vector3::zeros(),
+        pos: Position {
+            lat_rad: LAT,
+            lon_rad: 0.0,
+            height_m: 0.0,
+        },
+        w_ib_bm: Some(earth::earth_rate_n(LAT)),
+    }
+}
+
+/// Runs `seconds` of a stationary slave and master, masters at 100 Hz.
+fn run_static(engine: &mut Engine<f64>, seconds: f64) {
+    let n = (seconds * 200.0) as usize;
+    for i in 0..=n {
+        let t = i as f64 * 0.005;
+        engine.push_imu(imu_at(t, 0.005)).unwrap();
+        if i % 2 == 0 {
+            engine.push_master(master_at(t)).unwrap();
+        }
+    }
+}
+
+#[test]
+fn a_stationary_pair_calibrates_to_zero_errors() {
+    let mut e = Engine::new(config()).unwrap();
+    run_static(&mut e, 20.0);
+    let est = e.estimates();
+    assert!(
+        est.gyro_bias.norm() < 3.0 * est.gyro_bias_sigma.norm(),
+        "{est:?}"
+    );
+    assert!(est.misalignment.norm() < 1e-5, "{est:?}");
+    let c = e.counters();
+    assert_eq!(c.master_matched, 2000);
+    assert_eq!(c.master_stale + c.master_out_of_order + c.master_dropped, 0);
+    assert!(c.predictions >= 1999);
+    assert_eq!(e.health().non_finite, 0);
+}
+
+#[test]
+fn refuses_non_finite_and_backward_imu_samples() {
+    let mut e = Engine::new(config()).unwrap();
+    e.push_imu(imu_at(0.0, 0.005)).unwrap();
+    let mut bad = imu_at(0.005, 0.005);
+    bad.dv_b.x = f64::NAN;
+    assert_eq!(e.push_imu(bad).unwrap_err(), EngineError::NonFinite);
+    e.push_imu(imu_at(0.005, 0.005)).unwrap();
+    assert_eq!(
+        e.push_imu(imu_at(0.005, 0.005)).unwrap_err(),
+        EngineError::ImuTimeNotIncreasing
+    );
+    assert_eq!(
+        e.push_imu(imu_at(0.001, 0.005)).unwrap_err(),
+        EngineError::ImuTimeNotIncreasing
+    );
+    // The engine goes on after a refusal.
+    e.push_imu(imu_at(0.010, 0.005)).unwrap();
+    assert_eq!(e.counters().imu_samples, 2);
+}
+
+#[test]
+fn refuses_out_of_order_and_counts_stale_masters() {
+    let mut e = Engine::new(config()).unwrap();
+    run_static(&mut e, 2.0);
+    assert_eq!(
+        e.push_master(master_at(1.0)).unwrap_err(),
+        EngineError::MasterOutOfOrder
+    );
+    assert_eq!(e.counters().master_out_of_order, 1);
+    let mut nan = master_at(2.5);
+    nan.v_n.y = f64::INFINITY;
+    assert_eq!(e.push_master(nan).unwrap_err(), EngineError::NonFinite);
+    // A message newer than the last, but older than the alignment buffer, is stale.
+    let mut e2 = Engine::new(config()).unwrap();
+    e2.push_imu(imu_at(0.0, 0.005)).unwrap();
+    e2.push_imu(imu_at(0.005, 0.005)).unwrap();
+    e2.push_master(master_at(0.0)).unwrap();
+    for i in 2..400 {
+        e2.push_imu(imu_at(i as f64 * 0.005, 0.005)).unwrap();
+    }
+    e2.push_master(master_at(0.1)).unwrap();
+    assert_eq!(e2.counters().master_stale, 1);
+}
+
+#[test]
+fn too_many_waiting_masters_drop_the_oldest_and_say_so() {
+    let mut e = Engine::new(config()).unwrap();
+    e.push_imu(imu_at(0.0, 0.005)).unwrap();
+    let mut last = Ok(Default::default());
+    for k in 0..=PENDING_DEPTH {
+        last = e.push_master(master_at(1.0 + k as f64 * 0.01)).map(|_| ());
+    }
+    assert_eq!(last.unwrap_err(), EngineError::PendingOverflow);
+    assert_eq!(e.counters().master_dropped, 1);
+}
+
+#[test]
+fn inconsistent_configuration_is_refused() {
+    let mut c = config();
+    c.flexure.period_s = 0.02;
+    assert_eq!(Engine::new(c).unwrap_err(), EngineError::BadConfig);
+    let mut c = config();
+    c.filter_period_s = f64::NAN;
+    assert_eq!(Engine::new(c).unwrap_err(), EngineError::BadConfig);
+}
+
+#[derive(Clone, Debug)]
+enum Input {
+    Imu(f64, [f64; 6]),
+    Master(f64, [f64; 4], [f64; 3], bool),
+}
+
+fn any_f64() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        8 => -1e3..1e3f64,
+        1 => Just(f64::NAN),
+        1 => Just(f64::INFINITY),
+        1 => Just(-1e300),
+        1 => Just(0.0),
+    ]
+}
+
+fn any_input() -> impl Strategy<Value = Input> {
+    prop_oneof![
+        (0.0..10.0f64, proptest::array::uniform6(any_f64())).prop_map(|(t, v)| Input::Imu(t, v)),
+        (
+            0.0..10.0f64,
+            proptest::array::uniform4(any_f64()),
+            proptest::array::uniform3(any_f64()),
+            any::<bool>()
+        )
+            .prop_map(|(t, q, v, r)| Input::Master(t, q, v, r)),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 128, ..ProptestConfig::default() })]
+    /// Any sequence of inputs: no panic, and the estimates stay finite.
+    #[test]
+    fn arbitrary_inputs_never_panic(mut inputs in proptest::collection::vec(any_input(), 0..300), sort in any::<bool>()) {
+        if sort {
+            inputs.sort_by(|a, b| {
+                let t = |i: &Input| match i { Input::Imu(t, _) | Input::Master(t, ..) => *t };
+                t(a).total_cmp(&t(b))
+            });
+        }
+        let mut e = Engine::new(config()).unwrap();
+        for i in inputs {
+            match i {
+                Input::Imu(t, v) => {
+                    let _ = e.push_imu(ImuIncrement { t, dtheta_b: Vector3::new(v[0], v[1], v[2]) * 1e-3, dv_b: Vector3::new(v[3], v[4], v[5]) * 1e-2 });
+                }
+                Input::Master(t, q, v, r) => {
+                    let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]));
+                    let _ = e.push_master(MasterNav {
+                        t,
+                        q_bm_n: q,
+                        v_n: Vector3::from(v),
+                        pos: Position { lat_rad: LAT, lon_rad: 0.0, height_m: 0.0 },
+                        w_ib_bm: r.then(|| Vector3::new(0.01, 0.0, 0.0)),
+                    });
+                }
+            }
+        }
+        let est = e.estimates();
+        prop_assert!(est.gyro_bias.iter().chain(est.gyro_bias_sigma.iter()).all(|v| v.is_finite()));
+        prop_assert!(est.misalignment.iter().all(|v| v.is_finite()));
+    }
+}
