@@ -46,10 +46,10 @@ fn figure(
         Panel {
             title: format!("{title} {}", ["x", "y", "z"][axis]),
             y_label: unit.into(),
-            series: vec![series(with, "dynamic lever arm compensated")],
+            series: vec![series(with, "lever arm compensated")],
             bands: vec![],
             dashed: vec![
-                series(without, "not compensated (paper's baseline)"),
+                series(without, "not compensated"),
                 Series {
                     name: "truth".into(),
                     y: vec![truth[axis] * scale; tx.len()],

@@ -26,7 +26,7 @@ const BOTTOM: f64 = 54.0;
 /// Height of one legend entry, px.
 const LEGEND_LINE: f64 = 16.0;
 /// Longest legend entry, characters.
-const LEGEND_CHARS: usize = 26;
+const LEGEND_CHARS: usize = 22;
 
 /// Rough number of tick intervals on the (wide) x axis.
 const X_INTERVALS: f64 = 8.0;
