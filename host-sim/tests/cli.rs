@@ -80,6 +80,45 @@ fn simulate_then_calibrate_writes_the_contract_outputs() {
 }
 
 #[test]
+fn calibrate_identifies_the_flexure_when_asked_and_says_so() {
+    let tmp = tempfile::tempdir().unwrap();
+    let rec = tmp.path().join("rec");
+    let out = tmp.path().join("cal");
+    let st = flexcal()
+        .args([
+            "simulate",
+            "--scenario",
+            "moored",
+            "--duration",
+            "60",
+            "--out",
+        ])
+        .arg(&rec)
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let st = flexcal()
+        .arg("calibrate")
+        .arg(&rec)
+        .arg("--identify-flexure")
+        .arg("--out")
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let v = check_summary(&out);
+    let source = v["model"]["flexure_source"].as_str().unwrap();
+    assert!(
+        source.starts_with("identified from the rate-integrated sequence"),
+        "{source}"
+    );
+    let order = v["model"]["flexure_ar_order"].as_u64().unwrap();
+    assert!(order <= 2, "the filter carries AR(2) at most, got {order}");
+    let models = v["model"]["flexure_models"].as_array().unwrap();
+    assert_eq!(models.len(), 3);
+}
+
+#[test]
 fn measured_psins_recording_calibrates_with_the_mems_config() {
     let data = workspace().join("../shared/data/psins-vehicle-fog-mems");
     assert!(

@@ -27,6 +27,12 @@ pub struct CalibConfig {
     pub flexure_ar: [f64; 2],
     /// σ of the flexure AR driving noise (rad).
     pub flexure_sigma_rad: f64,
+    /// Identify the flexure model from the recording before calibrating (true), or
+    /// use `flexure_ar` / `flexure_axes` as given (false).
+    pub identify_flexure: bool,
+    /// Per-axis flexure models `[a1, a2, σ_rad]` (slave x, y, z); when present they
+    /// replace `flexure_ar` and `flexure_sigma_rad`. Identification fills them in.
+    pub flexure_axes: Option<[[f64; 3]; 3]>,
     /// Gyro angle random walk (rad/√s).
     pub gyro_arw_rad_rs: f64,
     /// Accelerometer velocity random walk (m/s/√s).
@@ -75,6 +81,8 @@ impl CalibConfig {
             bending: sim::Bending::UniformArc,
             flexure_ar: [0.0, 0.0],
             flexure_sigma_rad: 1e-4,
+            identify_flexure: true,
+            flexure_axes: None,
             gyro_arw_rad_rs: 1e-5,
             accel_vrw_mps_rs: 1e-4,
             gyro_bias_rw: 0.0,
@@ -133,6 +141,8 @@ impl CalibConfig {
             bending: sc.lever_arm.bending,
             flexure_ar,
             flexure_sigma_rad,
+            identify_flexure: false,
+            flexure_axes: None,
             gyro_arw_rad_rs: arw,
             accel_vrw_mps_rs: sc.slave_imu.accel_vrw_mps_rh / 60.0,
             gyro_bias_rw: 0.0,
@@ -183,6 +193,26 @@ impl CalibConfig {
         Ok(())
     }
 
+    /// The AR order of each axis's flexure model (trailing zero coefficients dropped).
+    pub fn flexure_orders(&self) -> [usize; 3] {
+        let uniform = [
+            self.flexure_ar[0],
+            self.flexure_ar[1],
+            self.flexure_sigma_rad,
+        ];
+        self.flexure_axes
+            .unwrap_or([uniform; 3])
+            .map(|[a1, a2, _]| {
+                if a2 != 0.0 {
+                    2
+                } else if a1 != 0.0 {
+                    1
+                } else {
+                    0
+                }
+            })
+    }
+
     /// The matching channels as flags.
     pub fn matching_flags(&self) -> Matching {
         let has = |n: &str| self.matching.iter().any(|m| m == n);
@@ -196,11 +226,17 @@ impl CalibConfig {
     /// The engine configuration in precision `T`, for a recording with lever arm `r0_m`.
     pub fn engine_config<T: Real>(&self, r0_m: [f64; 3]) -> EngineConfig<T> {
         let c = T::of;
-        let ar = ArAxis {
-            a1: c(self.flexure_ar[0]),
-            a2: c(self.flexure_ar[1]),
-            sigma_rad: c(self.flexure_sigma_rad),
-        };
+        let uniform = [
+            self.flexure_ar[0],
+            self.flexure_ar[1],
+            self.flexure_sigma_rad,
+        ];
+        let per_axis = self.flexure_axes.unwrap_or([uniform; 3]);
+        let axes = per_axis.map(|[a1, a2, sigma]| ArAxis {
+            a1: c(a1),
+            a2: c(a2),
+            sigma_rad: c(sigma),
+        });
         EngineConfig {
             filter_period_s: self.filter_period_s,
             matching: self.matching_flags(),
@@ -211,7 +247,7 @@ impl CalibConfig {
             },
             dynamic_lever_arm: self.dynamic_lever_arm,
             flexure: FlexureModel {
-                axes: [ar; 3],
+                axes,
                 period_s: c(self.filter_period_s),
             },
             process_noise: ProcessNoise {

@@ -2,5 +2,6 @@
 //! against truth, and the outputs of `flexcal calibrate`.
 
 pub mod config;
+pub mod flexure_id;
 pub mod run;
 pub mod score;

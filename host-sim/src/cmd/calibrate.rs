@@ -2,6 +2,7 @@
 //! `estimates.csv` and plots of every estimate with its ±3σ band.
 
 use crate::calib::config::CalibConfig;
+use crate::calib::flexure_id::identify_flexure;
 use crate::calib::run::{self as runner, Precision};
 use crate::calib::score::score;
 use crate::recording::read_recording;
@@ -26,6 +27,48 @@ pub struct Args {
     /// Leave the flexure-bent lever arm out of the model (the paper's baseline).
     #[arg(long)]
     pub no_dynamic_lever_arm: bool,
+    /// Identify the flexure model from the recording even when the configuration
+    /// fixes it (`identify_flexure = true` in the configuration does the same).
+    #[arg(long)]
+    pub identify_flexure: bool,
+}
+
+/// Identifies the flexure model when asked to and puts it in the configuration;
+/// returns where the model came from. A failed identification keeps the configured
+/// model and says why.
+pub fn choose_flexure(
+    rec: &crate::recording::Recording,
+    cfg: &mut CalibConfig,
+    force: bool,
+) -> String {
+    if !(cfg.identify_flexure || force) {
+        return "configured".to_string();
+    }
+    match identify_flexure(rec, cfg) {
+        Ok(id) => {
+            cfg.flexure_axes = Some(
+                id.axes
+                    .clone()
+                    .map(|a| [a.coefficients[0], a.coefficients[1], a.sigma_rad]),
+            );
+            let orders: Vec<String> = id.axes.iter().map(|a| a.order.to_string()).collect();
+            let white: Vec<&str> = id
+                .axes
+                .iter()
+                .map(|a| if a.white { "white" } else { "not white" })
+                .collect();
+            format!(
+                "identified from the {} sequence (orders {}; residuals {})",
+                id.sequence,
+                orders.join(", "),
+                white.join(", ")
+            )
+        }
+        Err(e) => {
+            eprintln!("flexcal: flexure identification failed, keeping the configured model: {e}");
+            format!("configured (identification failed: {e})")
+        }
+    }
 }
 
 /// Resolves the configuration: explicit file, the recording's own, or the default.
@@ -55,6 +98,8 @@ pub fn run(a: &Args) -> Result<(), String> {
         eprintln!("flexcal: the master gives no angular rate: angular-rate matching is off (velocity and attitude matching only)");
     }
     eprintln!("flexcal: configuration: {origin}");
+    let flexure_source = choose_flexure(&rec, &mut cfg, a.identify_flexure);
+    eprintln!("flexcal: flexure model: {flexure_source}");
     let res = runner::run(&rec, &cfg, a.precision)?;
     let sc = rec.truth.as_ref().and_then(|t| score(&res, t));
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
@@ -66,6 +111,7 @@ pub fn run(a: &Args) -> Result<(), String> {
         &a.rec_dir.display().to_string(),
         duration,
         &cfg,
+        &flexure_source,
         &res,
         sc.as_ref(),
     );

@@ -10,8 +10,8 @@
 
 use crate::identify::report::{prediction_figure, report_json, table};
 use crate::identify::{
-    flexure_sequence_with, identify_series, one_step_prediction, read_series_csv, Criterion,
-    IdentifyOptions, IdentifyReport, SequenceKind, SequenceOptions,
+    ar2_second_order, flexure_sequence_with, identify_series, one_step_prediction, read_series_csv,
+    Criterion, IdentifyOptions, IdentifyReport, SequenceKind, SequenceOptions,
 };
 use crate::recording::read_recording;
 use serde_json::{json, Map, Value};
@@ -176,10 +176,10 @@ fn run_series(a: &Args, opts: &IdentifyOptions, file: &Path) -> Result<(), Strin
     );
     merge(&mut obj, report_json(&rep));
     let json = Value::Object(obj);
-    print!(
-        "{}",
-        table(&rep, &format!("{} column {}", file.display(), col.name))
-    );
+    say(&table(
+        &rep,
+        &format!("{} column {}", file.display(), col.name),
+    ));
     let period = a.period.unwrap_or(1.0);
     let y: Vec<f64> = col.values.iter().map(|v| v - rep.mean_removed).collect();
     let coeffs = rep
@@ -205,7 +205,10 @@ fn run_series(a: &Args, opts: &IdentifyOptions, file: &Path) -> Result<(), Strin
         &col.name,
     );
     write_outputs(a, &json, &fig)?;
-    println!("wrote {}", a.out.join("identify.json").display());
+    say(&format!(
+        "wrote {}\n",
+        a.out.join("identify.json").display()
+    ));
     Ok(())
 }
 
@@ -227,18 +230,19 @@ fn run_recording(a: &Args, opts: &IdentifyOptions, dir: &Path) -> Result<(), Str
         match identify_series(x, opts) {
             Ok(r) => {
                 let mark = if i == ax { " (reported axis)" } else { "" };
-                print!(
-                    "{}",
-                    table(
-                        &r,
-                        &format!(
-                            "{}: sequence {}, axis {name}{mark}, period {period} s",
-                            dir.display(),
-                            seq.kind.name()
-                        )
-                    )
-                );
-                axes_json.insert((*name).into(), report_json(&r));
+                say(&table(
+                    &r,
+                    &format!(
+                        "{}: sequence {}, axis {name}{mark}, period {period} s",
+                        dir.display(),
+                        seq.kind.name()
+                    ),
+                ));
+                let mut j = report_json(&r);
+                if let Some(line) = second_order_line(&r, period, &mut j) {
+                    say(&format!("{line}\n"));
+                }
+                axes_json.insert((*name).into(), j);
                 reports.push(Some(r));
             }
             Err(e) => {
@@ -272,6 +276,12 @@ fn run_recording(a: &Args, opts: &IdentifyOptions, dir: &Path) -> Result<(), Str
     obj.insert("master_lowpass_hz".into(), json!(a.master_lowpass));
     obj.insert("axis".into(), json!(AXES.get(ax).copied().unwrap_or("x")));
     merge(&mut obj, report_json(rep));
+    if let Some(v) = axes_json
+        .get(AXES.get(ax).copied().unwrap_or("x"))
+        .and_then(|a| a.get("ar2_second_order"))
+    {
+        obj.insert("ar2_second_order".into(), v.clone());
+    }
     obj.insert("axes".into(), Value::Object(axes_json));
 
     // The true flexure, when the recording has it: reference identification and figure data.
@@ -289,17 +299,18 @@ fn run_recording(a: &Args, opts: &IdentifyOptions, dir: &Path) -> Result<(), Str
     if let (Some(th), true) = (&truth_axis, a.sequence != SequenceKind::Truth) {
         match identify_series(th, opts) {
             Ok(r) => {
-                print!(
-                    "{}",
-                    table(
-                        &r,
-                        &format!(
-                            "reference: true flexure, axis {}",
-                            AXES.get(ax).copied().unwrap_or("x")
-                        )
-                    )
-                );
-                obj.insert("truth_reference".into(), report_json(&r));
+                say(&table(
+                    &r,
+                    &format!(
+                        "reference: true flexure, axis {}",
+                        AXES.get(ax).copied().unwrap_or("x")
+                    ),
+                ));
+                let mut j = report_json(&r);
+                if let Some(line) = second_order_line(&r, period, &mut j) {
+                    say(&format!("{line}\n"));
+                }
+                obj.insert("truth_reference".into(), j);
             }
             Err(e) => {
                 obj.insert("truth_reference".into(), json!({ "error": e }));
@@ -366,8 +377,35 @@ fn run_recording(a: &Args, opts: &IdentifyOptions, dir: &Path) -> Result<(), Str
         unit,
     );
     write_outputs(a, &Value::Object(obj), &fig)?;
-    println!("wrote {}", a.out.join("identify.json").display());
+    say(&format!(
+        "wrote {}\n",
+        a.out.join("identify.json").display()
+    ));
     Ok(())
+}
+
+/// Adds `ar2_second_order` (the order-2 fit read as a sampled second-order system) to a report
+/// object and returns the line to print, if that fit exists and has complex poles.
+fn second_order_line(r: &IdentifyReport, period: f64, j: &mut Value) -> Option<String> {
+    let c = &r.order(2)?.coefficients;
+    let (a1, a2) = (*c.first()?, *c.get(1)?);
+    let (wn, zeta) = ar2_second_order(a1, a2, period)?;
+    if let Value::Object(m) = j {
+        m.insert(
+            "ar2_second_order".into(),
+            json!({ "omega_n_rad_s": wn, "zeta": zeta, "period_s": period }),
+        );
+    }
+    Some(format!(
+        "  AR(2) as a sampled second-order system: omega_n = {wn:.4} rad/s, zeta = {zeta:.4}"
+    ))
+}
+
+/// Writes to standard output, ignoring a closed pipe (e.g. `| head`): the results are in the
+/// files, the printout is a courtesy.
+fn say(text: &str) {
+    use std::io::Write as _;
+    let _ = std::io::stdout().lock().write_all(text.as_bytes());
 }
 
 fn finite_mean(x: &[f64]) -> f64 {

@@ -38,6 +38,10 @@ pub struct Args {
     /// Leave the flexure-bent lever arm out of the filter's model.
     #[arg(long)]
     pub no_dynamic_lever_arm: bool,
+    /// Identify the flexure model from each run's recording instead of using the
+    /// scenario's true model.
+    #[arg(long)]
+    pub identify_flexure: bool,
 }
 
 /// One run's final errors (9: gyro bias, accel bias, misalignment), σ and NEES.
@@ -76,7 +80,14 @@ pub fn one_run(
     precision: Precision,
 ) -> Result<RunResult, String> {
     let rec = simulate(sc, seed).recording;
-    let res = calibrate(&rec, cfg, precision)?;
+    let mut cfg = cfg.clone();
+    if cfg.identify_flexure {
+        let source = crate::cmd::calibrate::choose_flexure(&rec, &mut cfg, true);
+        if cfg.flexure_axes.is_none() {
+            return Err(format!("seed {seed}: {source}"));
+        }
+    }
+    let res = calibrate(&rec, &cfg, precision)?;
     let truth = rec.truth.as_ref().ok_or("simulation wrote no truth")?;
     let s = score(&res, truth).ok_or("no estimates to score")?;
     let last = res.last();
@@ -132,6 +143,7 @@ pub fn run(a: &Args) -> Result<(), String> {
     }
     let mut cfg = CalibConfig::declared_for(&sc, 1.0 / sc.master.rate_hz);
     cfg.dynamic_lever_arm = !a.no_dynamic_lever_arm;
+    cfg.identify_flexure = a.identify_flexure;
     let bar = ProgressBar::new(a.runs as u64);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {elapsed} elapsed, ETA {eta}")
@@ -160,6 +172,7 @@ pub fn run(a: &Args) -> Result<(), String> {
         "duration_s": sc.duration_s,
         "precision": a.precision,
         "dynamic_lever_arm": cfg.dynamic_lever_arm,
+        "flexure": if cfg.identify_flexure { "identified per run" } else { "the scenario's true model" },
         "states": states,
         "nees": { "mean": agg.nees_mean, "band_95": agg.nees_band, "dof_per_run": 9,
                   "inside": agg.nees_mean >= agg.nees_band[0] && agg.nees_mean <= agg.nees_band[1] },

@@ -8,11 +8,13 @@ use serde_json::{json, Value};
 use std::io::Write;
 use std::path::Path;
 
-/// The `summary.json` document of one calibration.
+/// The `summary.json` document of one calibration; `flexure_source` says where the
+/// flexure model came from (configured, or identified from the recording).
 pub fn summary_json(
     recording: &str,
     duration_s: f64,
     cfg: &CalibConfig,
+    flexure_source: &str,
     res: &CalibResult,
     score: Option<&Score>,
 ) -> Value {
@@ -38,8 +40,11 @@ pub fn summary_json(
             "states": flexcal_core::model::N,
             "matching": matching,
             "dynamic_lever_arm": cfg.dynamic_lever_arm,
-            "flexure_ar_order": if cfg.flexure_ar[1] != 0.0 { 2 } else if cfg.flexure_ar[0] != 0.0 { 1 } else { 0 },
-            "flexure_ar_coefficients": cfg.flexure_ar,
+            "flexure_ar_order": cfg.flexure_orders().into_iter().max().unwrap_or(0),
+            "flexure_ar_orders": cfg.flexure_orders(),
+            "flexure_models": cfg.flexure_axes.unwrap_or([[cfg.flexure_ar[0], cfg.flexure_ar[1], cfg.flexure_sigma_rad]; 3])
+                .map(|[a1, a2, s]| json!({"coefficients": [a1, a2], "sigma_rad": s})),
+            "flexure_source": flexure_source,
             "lever_arm_bending": cfg.bending,
         },
         "gyro_bias": last.gyro_bias, "gyro_bias_sigma": last.gyro_bias_sigma,
