@@ -201,6 +201,21 @@ fn describe(e: &FitError<f64>) -> String {
     }
 }
 
+fn describe_lb(e: &flexcal_core::ident::LjungBoxError) -> String {
+    use flexcal_core::ident::LjungBoxError as E;
+    match e {
+        E::NoDegreesOfFreedom { lags, fitted } => {
+            format!("Ljung-Box: {lags} lags do not exceed the {fitted} fitted parameters")
+        }
+        E::TooFewResiduals { n, lags } => {
+            format!("Ljung-Box: {n} residuals, not more than {lags} lags (use fewer --lags)")
+        }
+        E::NonFinite => "Ljung-Box: non-finite residuals".to_string(),
+        E::ZeroVariance => "Ljung-Box: the residuals are all zero".to_string(),
+        E::InvalidAlpha => "Ljung-Box: alpha must lie strictly between 0 and 1".to_string(),
+    }
+}
+
 /// Fits every order `0..=P` with the core identifier (common residual range `k > P`).
 fn fit_all<const P: usize>(x: &[f64]) -> Vec<RawFit> {
     let mut id = ArIdentifier::<f64, P>::new();
@@ -273,7 +288,7 @@ fn ljung_box_segments(
     if let [one] = res {
         return ljung_box(one, lags, fitted, alpha)
             .map(to_report)
-            .map_err(|e| format!("Ljung-Box: {e:?}"));
+            .map_err(|e| describe_lb(&e));
     }
     let n: usize = res.iter().map(Vec::len).sum();
     if lags <= fitted {
@@ -439,6 +454,24 @@ pub fn identify_series(x: &[f64], opts: &IdentifyOptions) -> Result<IdentifyRepo
         exact_ml: exact,
         exact_ml_error: exact_err,
     })
+}
+
+/// The continuous second-order system `θ̈ + 2ζω_n θ̇ + ω_n² θ = w` whose sampled poles
+/// (`e^{sT}`) are those of the AR(2) `a1, a2` at period `t`: `(ω_n, ζ)` in rad/s, or `None`
+/// when the poles are not a complex pair inside the unit circle (no such system).
+/// This is how AR(2) models near the unit circle are compared: their coefficients all look
+/// like `[2, −1]`, their frequency and damping do not.
+pub fn ar2_second_order(a1: f64, a2: f64, t: f64) -> Option<(f64, f64)> {
+    let disc = a1 * a1 + 4.0 * a2;
+    if !(disc < 0.0 && a2 > -1.0 && t > 0.0) {
+        return None;
+    }
+    let r = (-a2).sqrt();
+    let theta = (a1 / (2.0 * r)).clamp(-1.0, 1.0).acos();
+    let sigma = -r.ln() / t;
+    let wd = theta / t;
+    let wn = wd.hypot(sigma);
+    (wn > 0.0 && wn.is_finite()).then(|| (wn, sigma / wn))
 }
 
 /// One-step predictions `x̂_k = Σ a_i x_{k−i}` of the series (NaN where fewer than `p`

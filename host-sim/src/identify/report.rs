@@ -198,7 +198,7 @@ pub fn prediction_figure(
                 title: "Prediction error".to_string(),
                 y_label: unit.to_string(),
                 series: vec![Series {
-                    name: format!("{actual_name} minus prediction"),
+                    name: "error".to_string(),
                     x: t.to_vec(),
                     y: err,
                 }],

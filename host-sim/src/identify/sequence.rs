@@ -1,7 +1,7 @@
 //! The data sequences the identifier can be fed from a recording, one per slave body axis,
 //! sampled at the filter period `T` (a whole number of master periods).
 //!
-//! - [`SequenceKind::GyroDifference`], the paper's (its ref. [16]): differences of successive
+//! - [`SequenceKind::GyroDifference`], the paper's (its ref. \[16\]): differences of successive
 //!   slave gyro outputs, `D_k = ω̄_s,k − ω̄_s,k−1`, where `ω̄_s,k` is the slave's mean angular
 //!   rate over period `k` (the sum of its increments divided by `T`). Differencing removes the
 //!   slow part of the ship's motion, but what is left is the second difference of the flexure
@@ -36,7 +36,7 @@ pub enum SequenceKind {
     /// The master-to-slave rate difference, cleaned of bias and of terms linear in the
     /// master rate, integrated to an angle and detrended (ours; the default).
     RateIntegrated,
-    /// Differences of successive slave gyro outputs (the paper's ref. [16]).
+    /// Differences of successive slave gyro outputs (the paper's reference 16).
     GyroDifference,
     /// The true flexure angle from `truth.csv` (simulated recordings only).
     Truth,
