@@ -166,7 +166,7 @@ fn refuses_out_of_order_and_counts_stale_masters() {
 fn too_many_waiting_masters_drop_the_oldest_and_say_so() {
     let mut e = Engine::new(config()).unwrap();
     e.push_imu(imu_at(0.0, 0.005)).unwrap();
-    let mut last = Ok(Default::default());
+    let mut last = Ok(());
     for k in 0..=PENDING_DEPTH {
         last = e.push_master(master_at(1.0 + k as f64 * 0.01)).map(|_| ());
     }
