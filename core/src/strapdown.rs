@@ -425,7 +425,13 @@ mod tests {
     /// as its own increment), in both precisions.
     fn coning_error<T: Real>() -> f64 {
         let (alpha, w, dt) = (0.01_f64, 2.0 * core::f64::consts::PI * 2.0, 0.005);
-        let exact = |t: f64| quat_exp(&Vector3::new(alpha * (w * t).cos(), alpha * (w * t).sin(), 0.0));
+        let exact = |t: f64| {
+            quat_exp(&Vector3::new(
+                alpha * (w * t).cos(),
+                alpha * (w * t).sin(),
+                0.0,
+            ))
+        };
         let q0 = exact(0.0).coords.map(T::of);
         let mut sd = Strapdown::<T>::new(NavState {
             q_b_n: UnitQuaternion::new_normalize(Quaternion::from(q0)),
@@ -448,7 +454,9 @@ mod tests {
             sd.hi = sd.nav;
             prev = dth;
         }
-        let q = UnitQuaternion::new_unchecked(Quaternion::from(sd.nav.q_b_n.coords.map(|x| x.to_f64())));
+        let q = UnitQuaternion::new_unchecked(Quaternion::from(
+            sd.nav.q_b_n.coords.map(|x| x.to_f64()),
+        ));
         quat_log(&(exact(steps as f64 * dt).inverse() * q)).norm()
     }
 
