@@ -2,7 +2,6 @@
 //! master message is matched against the slave *at the message's time of validity*,
 //! never at its arrival.
 
-use crate::earth::Position;
 use crate::real::Real;
 use crate::rotation::{nlerp, quat_exp};
 use heapless::Deque;
@@ -17,8 +16,6 @@ pub struct Snapshot<T: Real> {
     pub q_b_n: UnitQuaternion<T>,
     /// Slave velocity at `t`, ENU (m/s).
     pub v_n: Vector3<T>,
-    /// Slave position at `t`.
-    pub pos: Position<T>,
     /// Raw (not bias-corrected) gyro increment over `(t − dt, t]`, slave body (rad).
     pub dtheta_raw_b: Vector3<T>,
     /// Raw accelerometer increment over the same interval, slave body (m/s).
@@ -34,8 +31,6 @@ pub struct SlaveAt<T: Real> {
     pub q_b_n: UnitQuaternion<T>,
     /// Velocity, ENU (m/s).
     pub v_n: Vector3<T>,
-    /// Position.
-    pub pos: Position<T>,
 }
 
 /// Why the buffer could not answer for a time.
@@ -104,11 +99,6 @@ impl<T: Real, const M: usize> AlignBuffer<T, M> {
                 return Ok(SlaveAt {
                     q_b_n: nlerp(&prev.q_b_n, &s.q_b_n, wt),
                     v_n: prev.v_n * (one - wt) + s.v_n * wt,
-                    pos: Position {
-                        lat_rad: prev.pos.lat_rad * (one - wt) + s.pos.lat_rad * wt,
-                        lon_rad: prev.pos.lon_rad * (one - wt) + s.pos.lon_rad * wt,
-                        height_m: prev.pos.height_m * (one - wt) + s.pos.height_m * wt,
-                    },
                 });
             }
             prev = s;
@@ -165,7 +155,6 @@ mod tests {
             t,
             q_b_n: quat_exp(&Vector3::new(0.0, 0.0, w * t)),
             v_n: Vector3::new(v * t, 0.0, 0.0),
-            pos: Position::default(),
             dtheta_raw_b: Vector3::new(0.0, 0.0, w * 0.005),
             dv_raw_b: Vector3::zeros(),
             dt: 0.005,

@@ -19,6 +19,8 @@ use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
 /// Slave snapshots kept for time alignment: at 200 Hz, 0.64 s of master latency.
 pub const ALIGN_DEPTH: usize = 128;
+/// An IMU interval this many times longer than the previous one is a gap.
+const GAP_FACTOR: f64 = 2.5;
 /// Master messages that may wait for the slave to catch up.
 pub const PENDING_DEPTH: usize = 8;
 
@@ -217,6 +219,8 @@ pub struct Engine<T: Real> {
     accel_bias: Vector3<T>,
     misalignment: Vector3<T>,
     last_imu_t: Option<f64>,
+    /// Length of the previous IMU interval (s), to recognize a gap.
+    last_imu_dt: Option<f64>,
     epoch: Option<Epoch<T>>,
     prev_master: Option<PrevMaster<T>>,
     last_update_t: f64,
@@ -245,6 +249,7 @@ impl<T: Real> Engine<T> {
             accel_bias: Vector3::zeros(),
             misalignment: cfg.initial_misalignment_rad,
             last_imu_t: None,
+            last_imu_dt: None,
             epoch: None,
             prev_master: None,
             last_update_t: 0.0,
@@ -395,7 +400,14 @@ impl<T: Real> Engine<T> {
         }
         self.counters.imu_samples += 1;
         let dt = s.t - t_prev;
+        // After a gap (an interval much longer than the last) the coning and sculling
+        // corrections must not pair this interval with one from before the gap.
+        let gap = self.last_imu_dt.is_some_and(|last| dt > GAP_FACTOR * last);
+        self.last_imu_dt = Some(dt);
         if let Some(sd) = self.strapdown.as_mut() {
+            if gap {
+                sd.reset_history();
+            }
             let dtt = T::of(dt);
             let inc = Increments {
                 dtheta_b: s.dtheta_b - self.gyro_bias * dtt,
@@ -408,7 +420,6 @@ impl<T: Real> Engine<T> {
                 t: s.t,
                 q_b_n: nav.q_b_n,
                 v_n: nav.v_n,
-                pos: nav.pos,
                 dtheta_raw_b: s.dtheta_b,
                 dv_raw_b: s.dv_b,
                 dt,
@@ -425,7 +436,6 @@ impl<T: Real> Engine<T> {
                 t: s.t,
                 q_b_n: UnitQuaternion::identity(),
                 v_n: Vector3::zeros(),
-                pos: Position::default(),
                 dtheta_raw_b: s.dtheta_b,
                 dv_raw_b: s.dv_b,
                 dt,
@@ -524,7 +534,6 @@ impl<T: Real> Engine<T> {
             t: msg.t,
             q_b_n: nav.q_b_n,
             v_n: nav.v_n,
-            pos: nav.pos,
             dtheta_raw_b: Vector3::zeros(),
             dv_raw_b: Vector3::zeros(),
             dt: 0.0,
@@ -551,7 +560,6 @@ impl<T: Real> Engine<T> {
             self.buffer.push(Snapshot {
                 q_b_n: sd.nav.q_b_n,
                 v_n: sd.nav.v_n,
-                pos: sd.nav.pos,
                 ..*s
             });
             t_prev = s.t;
