@@ -22,6 +22,7 @@ pub mod engine;
 pub mod flexure;
 pub mod ident;
 pub mod kalman;
+pub mod link;
 pub mod mat;
 pub mod model;
 pub mod real;

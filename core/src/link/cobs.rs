@@ -1,0 +1,222 @@
+//! Consistent Overhead Byte Stuffing (COBS), with `0x00` as the frame delimiter.
+//!
+//! The encoded form of `n` bytes holds no `0x00` and is at most
+//! `n + ceil(n / 254)` bytes long (`n + 1` for `1 ≤ n ≤ 254`). Each block is a code
+//! byte `c` (1..=255) followed by `c − 1` data bytes; a block with `c < 255` stands
+//! for its data followed by one `0x00`, except for the last block of the frame
+//! (the implicit trailing zero is dropped). The encoder writes the canonical form:
+//! after a full block (`c = 255`) a new block is started only if data remain.
+//!
+//! Both functions work on caller buffers, never allocate and never panic.
+
+/// Errors of [`decode_in_place`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum CobsError {
+    /// A `0x00` inside the encoded frame (it can only be a delimiter).
+    ZeroByte,
+    /// A code byte announces more data bytes than the frame holds.
+    Truncated,
+}
+
+/// Largest encoded length of `n` bytes (without delimiters).
+pub const fn max_encoded_len(n: usize) -> usize {
+    if n == 0 {
+        1
+    } else {
+        n + n.div_ceil(254)
+    }
+}
+
+/// Encodes `src` into `dst` (no delimiters written). Returns the encoded length, or
+/// `None` if `dst` is too small (then `dst` holds garbage).
+pub fn encode(src: &[u8], dst: &mut [u8]) -> Option<usize> {
+    // Position of the current block's code byte, and its code so far.
+    let mut code_at = 0usize;
+    let mut code = 1u8;
+    let mut out = 1usize;
+    // After a full block, whether the next block has been opened.
+    let mut open = true;
+    for &b in src {
+        if !open {
+            code_at = out;
+            code = 1;
+            out += 1;
+            open = true;
+        }
+        if b == 0 {
+            *dst.get_mut(code_at)? = code;
+            code_at = out;
+            code = 1;
+            out += 1;
+        } else {
+            *dst.get_mut(out)? = b;
+            out += 1;
+            code += 1;
+            if code == 0xFF {
+                *dst.get_mut(code_at)? = code;
+                open = false;
+            }
+        }
+    }
+    if open {
+        *dst.get_mut(code_at)? = code;
+    }
+    Some(out)
+}
+
+/// Decodes one frame (the bytes between two delimiters) in place; returns the decoded
+/// length, the decoded bytes being `buf[..len]`. `O(buf.len())`.
+pub fn decode_in_place(buf: &mut [u8]) -> Result<usize, CobsError> {
+    let n = buf.len();
+    let mut read = 0usize;
+    let mut write = 0usize;
+    // Invariant: write ≤ read (decoding never grows), so copies never overlap badly.
+    while let Some(&code) = buf.get(read) {
+        if code == 0 {
+            return Err(CobsError::ZeroByte);
+        }
+        let start = read + 1;
+        let end = start + usize::from(code) - 1;
+        if end > n {
+            return Err(CobsError::Truncated);
+        }
+        let data = buf.get(start..end).ok_or(CobsError::Truncated)?;
+        if data.contains(&0) {
+            return Err(CobsError::ZeroByte);
+        }
+        // In bounds: start ≤ end ≤ n and write + (end − start) ≤ end.
+        buf.copy_within(start..end, write);
+        write += end - start;
+        read = end;
+        if code != 0xFF && read < n {
+            *buf.get_mut(write).ok_or(CobsError::Truncated)? = 0;
+            write += 1;
+        }
+    }
+    Ok(write)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn roundtrip(src: &[u8]) -> ([u8; 1024], usize) {
+        let mut enc = [0u8; 1024];
+        let n = encode(src, &mut enc).unwrap();
+        assert!(n <= max_encoded_len(src.len()), "len {n} for {}", src.len());
+        assert!(!enc[..n].contains(&0));
+        let mut dec = enc;
+        let m = decode_in_place(&mut dec[..n]).unwrap();
+        assert_eq!(&dec[..m], src);
+        (enc, n)
+    }
+
+    #[test]
+    fn reference_vectors() {
+        // The classic examples (Cheshire & Baker; also listed on Wikipedia).
+        let cases: &[(&[u8], &[u8])] = &[
+            (&[], &[0x01]),
+            (&[0x00], &[0x01, 0x01]),
+            (&[0x00, 0x00], &[0x01, 0x01, 0x01]),
+            (&[0x00, 0x11, 0x00], &[0x01, 0x02, 0x11, 0x01]),
+            (&[0x11, 0x22, 0x00, 0x33], &[0x03, 0x11, 0x22, 0x02, 0x33]),
+            (&[0x11, 0x22, 0x33, 0x44], &[0x05, 0x11, 0x22, 0x33, 0x44]),
+            (&[0x11, 0x00, 0x00, 0x00], &[0x02, 0x11, 0x01, 0x01, 0x01]),
+        ];
+        for (src, want) in cases {
+            let (enc, n) = roundtrip(src);
+            assert_eq!(&enc[..n], *want, "src {src:02x?}");
+        }
+    }
+
+    #[test]
+    fn long_blocks() {
+        // 254 non-zero bytes: one full block, no trailing code byte.
+        let a: [u8; 254] = core::array::from_fn(|i| (i + 1) as u8);
+        let (enc, n) = roundtrip(&a);
+        assert_eq!(n, 255);
+        assert_eq!(enc[0], 0xFF);
+        // A zero then 254 non-zero bytes.
+        let mut b = [0u8; 255];
+        b[1..].copy_from_slice(&a);
+        let (enc, n) = roundtrip(&b);
+        assert_eq!(n, 256);
+        assert_eq!(&enc[..2], &[0x01, 0xFF]);
+        // 255 non-zero bytes: a full block then a block of one.
+        let c: [u8; 255] = core::array::from_fn(|i| (i % 255 + 1) as u8);
+        let (enc, n) = roundtrip(&c);
+        assert_eq!(n, 257);
+        assert_eq!(enc[0], 0xFF);
+        assert_eq!(&enc[255..257], &[0x02, c[254]]);
+        // A full block followed by a zero.
+        let mut d = [0u8; 255];
+        d[..254].copy_from_slice(&a);
+        let (enc, n) = roundtrip(&d);
+        assert_eq!(&enc[254..n], &[a[253], 0x01, 0x01][..n - 254]);
+    }
+
+    #[test]
+    fn all_short_patterns_roundtrip() {
+        // Every 3-byte string over {0, 1, 0xFF}, and lengths around block boundaries.
+        let alphabet = [0u8, 1, 0xFF];
+        for a in alphabet {
+            for b in alphabet {
+                for c in alphabet {
+                    roundtrip(&[a, b, c]);
+                }
+            }
+        }
+        for len in [253, 254, 255, 256, 508, 509, 510] {
+            let v: [u8; 600] = core::array::from_fn(|i| if i % 300 == 299 { 0 } else { 7 });
+            roundtrip(&v[..len]);
+        }
+    }
+
+    #[test]
+    fn small_destination() {
+        let mut dst = [0u8; 4];
+        assert_eq!(encode(&[1, 2, 3, 4], &mut dst), None);
+        assert_eq!(encode(&[1, 2, 3], &mut dst), Some(4));
+        assert_eq!(encode(&[], &mut []), None);
+    }
+
+    #[test]
+    fn invalid_frames() {
+        assert_eq!(
+            decode_in_place(&mut [0x03, 0x11]),
+            Err(CobsError::Truncated)
+        );
+        assert_eq!(decode_in_place(&mut [0x02, 0x00]), Err(CobsError::ZeroByte));
+        assert_eq!(decode_in_place(&mut [0x00]), Err(CobsError::ZeroByte));
+        assert_eq!(
+            decode_in_place(&mut [0x01, 0x05]),
+            Err(CobsError::Truncated)
+        );
+        assert_eq!(decode_in_place(&mut []), Ok(0));
+    }
+
+    #[test]
+    fn arbitrary_input_never_panics() {
+        // Every 1- and 2-byte input, and a pseudo-random sweep of longer ones.
+        for a in 0..=255u8 {
+            let _ = decode_in_place(&mut [a]);
+            for b in 0..=255u8 {
+                let _ = decode_in_place(&mut [a, b]);
+            }
+        }
+        let mut x = 0x1234_5678u32;
+        for len in 0..300 {
+            let mut buf = [0u8; 300];
+            for byte in buf.iter_mut().take(len) {
+                x ^= x << 13;
+                x ^= x >> 17;
+                x ^= x << 5;
+                *byte = x as u8;
+            }
+            if let Ok(n) = decode_in_place(&mut buf[..len]) {
+                assert!(n <= len);
+            }
+        }
+    }
+}

@@ -1,0 +1,1007 @@
+//! The link's messages and their payload layouts (all little-endian, no padding).
+//!
+//! Every message starts with its time of validity `t` as an `f64` in seconds on the
+//! slave's time base: that is the type the engine keys everything on
+//! ([`MasterNav::t`](crate::engine::MasterNav), [`ImuIncrement::t`](crate::engine::ImuIncrement)),
+//! so no conversion or rounding happens at the link, and an `f64` resolves better than
+//! 1 µs for 270 years of uptime.
+//!
+//! The byte-by-byte layouts are in `docs/link-protocol.md`; the `*_LEN` constants and
+//! the unit tests below pin them.
+//!
+//! Conventions are those of `recording-v1`: `n` is East-North-Up, body frames are
+//! right-forward-up, quaternions are Hamilton, scalar first, `q_b^n`.
+
+use crate::earth::Position;
+use crate::engine::{Counters, Estimates, ImuIncrement, MasterNav};
+use crate::kalman::Health;
+use crate::link::codec::DecoderCounters;
+use crate::link::receiver::LinkCounters;
+use crate::link::sequence::SequenceCounters;
+use crate::real::Real;
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+
+/// Payload length of [`MasterNavMsg`].
+pub const MASTER_NAV_LEN: usize = 85;
+/// Payload length of [`ImuSampleMsg`].
+pub const IMU_SAMPLE_LEN: usize = 32;
+/// Payload length of [`EstimatesMsg`].
+pub const ESTIMATES_LEN: usize = 106;
+/// Payload length of [`StatusMsg`].
+pub const STATUS_LEN: usize = 128;
+
+/// Largest allowed `| |q|² − 1 |` of a received quaternion (|q| within about 1e-6 of 1,
+/// as in `recording-v1`).
+pub const QUAT_NORM_TOL: f64 = 2e-6;
+
+/// Slack on the ±π/2 latitude bound (rad), so that a pole latitude rounded to `f32`
+/// (which rounds up, to 1.5707964) is still accepted.
+pub const LAT_TOL: f64 = 1e-6;
+
+/// Bit 0 of the MasterNav flag byte: the angular rate is present.
+const FLAG_RATE: u8 = 0x01;
+
+/// The message types. Bit 7 of the type byte gives the direction: clear for
+/// messages to the slave board, set for messages from it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum MessageKind {
+    /// `0x01`, master INS → board: the master's navigation solution.
+    MasterNav,
+    /// `0x02`, host → board: one slave IMU sample, for replay (QEMU, hardware in the loop).
+    ImuSample,
+    /// `0x81`, board → host: the calibration estimates.
+    Estimates,
+    /// `0x82`, board → host: link and engine counters.
+    Status,
+}
+
+impl MessageKind {
+    /// Every kind, in stream-index order.
+    pub const ALL: [MessageKind; 4] = [
+        MessageKind::MasterNav,
+        MessageKind::ImuSample,
+        MessageKind::Estimates,
+        MessageKind::Status,
+    ];
+
+    /// The type byte on the wire.
+    pub const fn type_byte(self) -> u8 {
+        match self {
+            MessageKind::MasterNav => 0x01,
+            MessageKind::ImuSample => 0x02,
+            MessageKind::Estimates => 0x81,
+            MessageKind::Status => 0x82,
+        }
+    }
+
+    /// The kind of a type byte (`None`: unknown type).
+    pub const fn from_type_byte(byte: u8) -> Option<Self> {
+        match byte {
+            0x01 => Some(MessageKind::MasterNav),
+            0x02 => Some(MessageKind::ImuSample),
+            0x81 => Some(MessageKind::Estimates),
+            0x82 => Some(MessageKind::Status),
+            _ => None,
+        }
+    }
+
+    /// The fixed payload length of this kind.
+    pub const fn payload_len(self) -> usize {
+        match self {
+            MessageKind::MasterNav => MASTER_NAV_LEN,
+            MessageKind::ImuSample => IMU_SAMPLE_LEN,
+            MessageKind::Estimates => ESTIMATES_LEN,
+            MessageKind::Status => STATUS_LEN,
+        }
+    }
+
+    /// Index of this kind's stream, `0..4` (sequence numbers are per stream).
+    pub const fn stream_index(self) -> usize {
+        match self {
+            MessageKind::MasterNav => 0,
+            MessageKind::ImuSample => 1,
+            MessageKind::Estimates => 2,
+            MessageKind::Status => 3,
+        }
+    }
+}
+
+/// The master's navigation message (type `0x01`, 85-byte payload).
+///
+/// Precision on the wire: the quaternion is `f64` (an `f32` component rounds by up
+/// to 3e-8, so about 6e-8 rad of attitude noise, too close to the 1e-7 rad this
+/// calibration resolves to be left to the wire; 16 bytes more per message); latitude
+/// and longitude are `f64` (an `f32` is 0.6 m at Earth scale); velocity, height and
+/// angular rate are `f32` (relative 6e-8: 2e-5 m/s at 300 m/s, 1 mm at 16 km, 6e-8 rad/s at 1 rad/s).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MasterNavMsg {
+    /// Time of validity (s).
+    pub t: f64,
+    /// Attitude `q_bm^n` as `[w, x, y, z]` (unit norm within [`QUAT_NORM_TOL`]).
+    pub q_bm_n: [f64; 4],
+    /// Velocity `v^n` as `[E, N, U]` (m/s).
+    pub v_n: [f32; 3],
+    /// Geodetic latitude (rad, within ±π/2, up to [`LAT_TOL`]).
+    pub lat_rad: f64,
+    /// Longitude (rad).
+    pub lon_rad: f64,
+    /// Height above the ellipsoid (m).
+    pub height_m: f32,
+    /// Angular rate `ω_ib^bm` as `[x, y, z]` (rad/s), when the master gives it.
+    pub w_ib_bm: Option<[f32; 3]>,
+}
+
+/// One slave IMU sample for replay (type `0x02`, 32-byte payload): increments over
+/// `(t_prev, t]` in the slave body frame. `f32` like the board's engine and the
+/// IMU's own output registers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuSampleMsg {
+    /// End of the interval (s).
+    pub t: f64,
+    /// ∫ ω_ib^bs dt as `[x, y, z]` (rad).
+    pub dtheta_b: [f32; 3],
+    /// ∫ f^bs dt as `[x, y, z]` (m/s).
+    pub dv_b: [f32; 3],
+}
+
+/// Health flags sent with the estimates (a `u16`; bits not defined here are kept
+/// as received and ignored).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct HealthFlags(pub u16);
+
+impl HealthFlags {
+    /// The last scalar measurement was rejected by the innovation gate.
+    pub const GATING: u16 = 1 << 0;
+    /// A non-finite input or result was refused at least once.
+    pub const NON_FINITE: u16 = 1 << 1;
+    /// A variance was clamped to its floor at least once.
+    pub const VARIANCE_CLAMPED: u16 = 1 << 2;
+    /// An update was refused for a non-positive innovation variance at least once.
+    pub const BAD_INNOVATION_VARIANCE: u16 = 1 << 3;
+    /// The filter was re-initialized at least once.
+    pub const RESET: u16 = 1 << 4;
+    /// Master messages were lost at least once (stale, out of order or dropped).
+    pub const MASTER_LOST: u16 = 1 << 5;
+    /// No master message has been matched yet (the estimates are the priors).
+    pub const NO_MATCH_YET: u16 = 1 << 6;
+
+    /// The flags summarizing the engine's health and counters.
+    pub fn from_engine(health: &Health, counters: &Counters) -> Self {
+        let mut f = 0u16;
+        let mut set = |on: bool, bit: u16| {
+            if on {
+                f |= bit;
+            }
+        };
+        set(health.gated_streak > 0, Self::GATING);
+        set(health.non_finite > 0, Self::NON_FINITE);
+        set(health.variance_clamped > 0, Self::VARIANCE_CLAMPED);
+        set(
+            health.bad_innovation_variance > 0,
+            Self::BAD_INNOVATION_VARIANCE,
+        );
+        set(counters.resets > 0, Self::RESET);
+        set(
+            counters.master_stale > 0
+                || counters.master_out_of_order > 0
+                || counters.master_dropped > 0,
+            Self::MASTER_LOST,
+        );
+        set(counters.master_matched == 0, Self::NO_MATCH_YET);
+        Self(f)
+    }
+
+    /// Whether every bit of `bits` is set.
+    pub const fn contains(self, bits: u16) -> bool {
+        self.0 & bits == bits
+    }
+}
+
+/// The calibration estimates (type `0x81`, 106-byte payload); `f32`, the board's
+/// precision (and far finer than any σ here).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EstimatesMsg {
+    /// Time of the latest filter update (s).
+    pub t: f64,
+    /// Gyro bias (rad/s, slave body x, y, z).
+    pub gyro_bias: [f32; 3],
+    /// Its standard deviation (≥ 0).
+    pub gyro_bias_sigma: [f32; 3],
+    /// Accelerometer bias (m/s², slave body).
+    pub accel_bias: [f32; 3],
+    /// Its standard deviation (≥ 0).
+    pub accel_bias_sigma: [f32; 3],
+    /// Misalignment μ (rad, rotation vector).
+    pub misalignment: [f32; 3],
+    /// Its standard deviation (≥ 0).
+    pub misalignment_sigma: [f32; 3],
+    /// Flexure angle θ (rad, rotation vector).
+    pub flexure: [f32; 3],
+    /// Its standard deviation (≥ 0).
+    pub flexure_sigma: [f32; 3],
+    /// Health flags.
+    pub health: HealthFlags,
+}
+
+/// Counters (type `0x82`, 128-byte payload): the board's link counters, the engine's
+/// input counters and the filter's health counters, each a wrapping `u32`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StatusMsg {
+    /// Time the counters were read (s).
+    pub t: f64,
+    /// The receiving side of the link.
+    pub link: LinkCounters,
+    /// The engine's input counters.
+    pub engine: Counters,
+    /// The filter's health counters.
+    pub health: Health,
+}
+
+/// One message of any kind.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Message {
+    /// See [`MasterNavMsg`].
+    MasterNav(MasterNavMsg),
+    /// See [`ImuSampleMsg`].
+    ImuSample(ImuSampleMsg),
+    /// See [`EstimatesMsg`].
+    Estimates(EstimatesMsg),
+    /// See [`StatusMsg`].
+    Status(StatusMsg),
+}
+
+/// Why a payload is refused (on encoding as on decoding).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum PayloadError {
+    /// The payload length is not the kind's fixed length.
+    BadLength,
+    /// A float is NaN or infinite.
+    NonFinite,
+    /// A value is out of its domain: non-unit quaternion, latitude beyond ±π/2,
+    /// negative σ, unknown MasterNav flag bits, rate bytes set while the rate is absent.
+    BadValue,
+}
+
+impl Message {
+    /// This message's kind.
+    pub const fn kind(&self) -> MessageKind {
+        match self {
+            Message::MasterNav(_) => MessageKind::MasterNav,
+            Message::ImuSample(_) => MessageKind::ImuSample,
+            Message::Estimates(_) => MessageKind::Estimates,
+            Message::Status(_) => MessageKind::Status,
+        }
+    }
+
+    /// Time of validity (s).
+    pub const fn time(&self) -> f64 {
+        match self {
+            Message::MasterNav(m) => m.t,
+            Message::ImuSample(m) => m.t,
+            Message::Estimates(m) => m.t,
+            Message::Status(m) => m.t,
+        }
+    }
+
+    /// Checks the values (the same checks on both ends of the link).
+    pub fn validate(&self) -> Result<(), PayloadError> {
+        match self {
+            Message::MasterNav(m) => {
+                let floats_ok = finite64(&[m.t, m.lat_rad, m.lon_rad])
+                    && finite64(&m.q_bm_n)
+                    && finite32(&m.v_n)
+                    && m.height_m.is_finite()
+                    && m.w_ib_bm.as_ref().is_none_or(|w| finite32(w));
+                if !floats_ok {
+                    return Err(PayloadError::NonFinite);
+                }
+                let n2: f64 = m.q_bm_n.iter().map(|c| c * c).sum();
+                if (n2 - 1.0).abs() > QUAT_NORM_TOL
+                    || m.lat_rad.abs() > core::f64::consts::FRAC_PI_2 + LAT_TOL
+                {
+                    return Err(PayloadError::BadValue);
+                }
+                Ok(())
+            }
+            Message::ImuSample(m) => {
+                if m.t.is_finite() && finite32(&m.dtheta_b) && finite32(&m.dv_b) {
+                    Ok(())
+                } else {
+                    Err(PayloadError::NonFinite)
+                }
+            }
+            Message::Estimates(m) => {
+                let values = [m.gyro_bias, m.accel_bias, m.misalignment, m.flexure];
+                let sigmas = [
+                    m.gyro_bias_sigma,
+                    m.accel_bias_sigma,
+                    m.misalignment_sigma,
+                    m.flexure_sigma,
+                ];
+                let all_finite = m.t.is_finite()
+                    && values.iter().all(|v| finite32(v))
+                    && sigmas.iter().all(|v| finite32(v));
+                if !all_finite {
+                    return Err(PayloadError::NonFinite);
+                }
+                if sigmas.iter().flatten().any(|s| *s < 0.0) {
+                    return Err(PayloadError::BadValue);
+                }
+                Ok(())
+            }
+            Message::Status(m) => {
+                if m.t.is_finite() {
+                    Ok(())
+                } else {
+                    Err(PayloadError::NonFinite)
+                }
+            }
+        }
+    }
+
+    /// Writes the payload into the front of `out`; returns its length, or `None` if
+    /// `out` is shorter than [`MessageKind::payload_len`]. Does not validate.
+    pub fn write_payload(&self, out: &mut [u8]) -> Option<usize> {
+        let mut w = Writer { buf: out, len: 0 };
+        match self {
+            Message::MasterNav(m) => {
+                w.f64(m.t)?;
+                w.f64s(&m.q_bm_n)?;
+                w.f32s(&m.v_n)?;
+                w.f64(m.lat_rad)?;
+                w.f64(m.lon_rad)?;
+                w.f32(m.height_m)?;
+                match &m.w_ib_bm {
+                    Some(rate) => {
+                        w.u8(FLAG_RATE)?;
+                        w.f32s(rate)?;
+                    }
+                    None => {
+                        w.u8(0)?;
+                        w.bytes([0u8; 12])?;
+                    }
+                }
+            }
+            Message::ImuSample(m) => {
+                w.f64(m.t)?;
+                w.f32s(&m.dtheta_b)?;
+                w.f32s(&m.dv_b)?;
+            }
+            Message::Estimates(m) => {
+                w.f64(m.t)?;
+                for v in [
+                    &m.gyro_bias,
+                    &m.gyro_bias_sigma,
+                    &m.accel_bias,
+                    &m.accel_bias_sigma,
+                    &m.misalignment,
+                    &m.misalignment_sigma,
+                    &m.flexure,
+                    &m.flexure_sigma,
+                ] {
+                    w.f32s(v)?;
+                }
+                w.bytes(m.health.0.to_le_bytes())?;
+            }
+            Message::Status(m) => {
+                w.f64(m.t)?;
+                for c in status_counters(m) {
+                    w.bytes(c.to_le_bytes())?;
+                }
+            }
+        }
+        Some(w.len)
+    }
+
+    /// Parses and validates a payload of the given kind.
+    pub fn read_payload(kind: MessageKind, payload: &[u8]) -> Result<Self, PayloadError> {
+        if payload.len() != kind.payload_len() {
+            return Err(PayloadError::BadLength);
+        }
+        let msg = Self::parse(kind, payload).ok_or(PayloadError::BadLength)??;
+        msg.validate()?;
+        Ok(msg)
+    }
+
+    fn parse(kind: MessageKind, payload: &[u8]) -> Option<Result<Self, PayloadError>> {
+        let mut r = Reader { rest: payload };
+        let msg = match kind {
+            MessageKind::MasterNav => {
+                let t = r.f64()?;
+                let q_bm_n = r.f64s()?;
+                let v_n = r.f32s()?;
+                let lat_rad = r.f64()?;
+                let lon_rad = r.f64()?;
+                let height_m = r.f32()?;
+                let flags = r.u8()?;
+                let rate_bytes: [u8; 12] = r.bytes()?;
+                let w_ib_bm = match flags {
+                    FLAG_RATE => {
+                        let mut rr = Reader { rest: &rate_bytes };
+                        Some(rr.f32s()?)
+                    }
+                    0 if rate_bytes == [0u8; 12] => None,
+                    _ => return Some(Err(PayloadError::BadValue)),
+                };
+                Message::MasterNav(MasterNavMsg {
+                    t,
+                    q_bm_n,
+                    v_n,
+                    lat_rad,
+                    lon_rad,
+                    height_m,
+                    w_ib_bm,
+                })
+            }
+            MessageKind::ImuSample => Message::ImuSample(ImuSampleMsg {
+                t: r.f64()?,
+                dtheta_b: r.f32s()?,
+                dv_b: r.f32s()?,
+            }),
+            MessageKind::Estimates => Message::Estimates(EstimatesMsg {
+                t: r.f64()?,
+                gyro_bias: r.f32s()?,
+                gyro_bias_sigma: r.f32s()?,
+                accel_bias: r.f32s()?,
+                accel_bias_sigma: r.f32s()?,
+                misalignment: r.f32s()?,
+                misalignment_sigma: r.f32s()?,
+                flexure: r.f32s()?,
+                flexure_sigma: r.f32s()?,
+                health: HealthFlags(u16::from_le_bytes(r.bytes()?)),
+            }),
+            MessageKind::Status => {
+                let t = r.f64()?;
+                let mut c = [0u32; STATUS_COUNTERS];
+                for slot in c.iter_mut() {
+                    *slot = r.u32()?;
+                }
+                Message::Status(status_from_counters(t, &c))
+            }
+        };
+        if r.rest.is_empty() {
+            Some(Ok(msg))
+        } else {
+            None
+        }
+    }
+}
+
+impl MasterNavMsg {
+    /// The wire form of an engine message (velocity, height and rate rounded to `f32`).
+    pub fn from_engine<T: Real>(m: &MasterNav<T>) -> Self {
+        let q = m.q_bm_n.quaternion();
+        Self {
+            t: m.t,
+            q_bm_n: [q.w.to_f64(), q.i.to_f64(), q.j.to_f64(), q.k.to_f64()],
+            v_n: to_f32s(&m.v_n),
+            lat_rad: m.pos.lat_rad.to_f64(),
+            lon_rad: m.pos.lon_rad.to_f64(),
+            height_m: m.pos.height_m.to_f64() as f32,
+            w_ib_bm: m.w_ib_bm.as_ref().map(to_f32s),
+        }
+    }
+
+    /// The engine message (the quaternion is renormalized in `T`).
+    pub fn to_engine<T: Real>(&self) -> MasterNav<T> {
+        let [w, x, y, z] = self.q_bm_n;
+        MasterNav {
+            t: self.t,
+            q_bm_n: UnitQuaternion::from_quaternion(Quaternion::new(
+                T::of(w),
+                T::of(x),
+                T::of(y),
+                T::of(z),
+            )),
+            v_n: from_f32s(&self.v_n),
+            pos: Position {
+                lat_rad: T::of(self.lat_rad),
+                lon_rad: T::of(self.lon_rad),
+                height_m: T::of(f64::from(self.height_m)),
+            },
+            w_ib_bm: self.w_ib_bm.as_ref().map(from_f32s),
+        }
+    }
+}
+
+impl ImuSampleMsg {
+    /// The wire form of an engine sample (rounded to `f32`).
+    pub fn from_engine<T: Real>(s: &ImuIncrement<T>) -> Self {
+        Self {
+            t: s.t,
+            dtheta_b: to_f32s(&s.dtheta_b),
+            dv_b: to_f32s(&s.dv_b),
+        }
+    }
+
+    /// The engine sample.
+    pub fn to_engine<T: Real>(&self) -> ImuIncrement<T> {
+        ImuIncrement {
+            t: self.t,
+            dtheta_b: from_f32s(&self.dtheta_b),
+            dv_b: from_f32s(&self.dv_b),
+        }
+    }
+}
+
+impl EstimatesMsg {
+    /// The wire form of the engine's estimates (rounded to `f32`).
+    pub fn from_engine<T: Real>(e: &Estimates<T>, health: HealthFlags) -> Self {
+        Self {
+            t: e.t,
+            gyro_bias: to_f32s(&e.gyro_bias),
+            gyro_bias_sigma: to_f32s(&e.gyro_bias_sigma),
+            accel_bias: to_f32s(&e.accel_bias),
+            accel_bias_sigma: to_f32s(&e.accel_bias_sigma),
+            misalignment: to_f32s(&e.misalignment),
+            misalignment_sigma: to_f32s(&e.misalignment_sigma),
+            flexure: to_f32s(&e.flexure),
+            flexure_sigma: to_f32s(&e.flexure_sigma),
+            health,
+        }
+    }
+
+    /// The engine's estimates type.
+    pub fn to_engine<T: Real>(&self) -> Estimates<T> {
+        Estimates {
+            t: self.t,
+            gyro_bias: from_f32s(&self.gyro_bias),
+            gyro_bias_sigma: from_f32s(&self.gyro_bias_sigma),
+            accel_bias: from_f32s(&self.accel_bias),
+            accel_bias_sigma: from_f32s(&self.accel_bias_sigma),
+            misalignment: from_f32s(&self.misalignment),
+            misalignment_sigma: from_f32s(&self.misalignment_sigma),
+            flexure: from_f32s(&self.flexure),
+            flexure_sigma: from_f32s(&self.flexure_sigma),
+        }
+    }
+}
+
+/// Number of `u32` counters in a Status payload.
+const STATUS_COUNTERS: usize = 30;
+
+/// The Status counters in wire order.
+fn status_counters(m: &StatusMsg) -> [u32; STATUS_COUNTERS] {
+    let d = &m.link.decoder;
+    let s = &m.link.sequence;
+    let e = &m.engine;
+    let h = &m.health;
+    [
+        d.frames,
+        d.oversize,
+        d.cobs,
+        d.too_short,
+        d.crc,
+        d.unknown_type,
+        d.bad_length,
+        d.non_finite,
+        d.bad_value,
+        s.accepted,
+        s.gaps,
+        s.missed,
+        s.duplicates,
+        s.out_of_order,
+        s.stale,
+        s.resyncs,
+        e.imu_samples,
+        e.master_matched,
+        e.master_stale,
+        e.master_out_of_order,
+        e.master_dropped,
+        e.predictions,
+        e.resets,
+        h.updates,
+        h.gated,
+        h.max_gated_streak,
+        h.gated_streak,
+        h.non_finite,
+        h.variance_clamped,
+        h.bad_innovation_variance,
+    ]
+}
+
+/// The inverse of [`status_counters`].
+fn status_from_counters(t: f64, c: &[u32; STATUS_COUNTERS]) -> StatusMsg {
+    let [frames, oversize, cobs, too_short, crc, unknown_type, bad_length, non_finite, bad_value, accepted, gaps, missed, duplicates, out_of_order, stale, resyncs, imu_samples, master_matched, master_stale, master_out_of_order, master_dropped, predictions, resets, updates, gated, max_gated_streak, gated_streak, h_non_finite, variance_clamped, bad_innovation_variance] =
+        *c;
+    StatusMsg {
+        t,
+        link: LinkCounters {
+            decoder: DecoderCounters {
+                frames,
+                oversize,
+                cobs,
+                too_short,
+                crc,
+                unknown_type,
+                bad_length,
+                non_finite,
+                bad_value,
+            },
+            sequence: SequenceCounters {
+                accepted,
+                gaps,
+                missed,
+                duplicates,
+                out_of_order,
+                stale,
+                resyncs,
+            },
+        },
+        engine: Counters {
+            imu_samples,
+            master_matched,
+            master_stale,
+            master_out_of_order,
+            master_dropped,
+            predictions,
+            resets,
+        },
+        health: Health {
+            updates,
+            gated,
+            max_gated_streak,
+            gated_streak,
+            non_finite: h_non_finite,
+            variance_clamped,
+            bad_innovation_variance,
+        },
+    }
+}
+
+fn finite64(x: &[f64]) -> bool {
+    x.iter().all(|v| v.is_finite())
+}
+
+fn finite32(x: &[f32]) -> bool {
+    x.iter().all(|v| v.is_finite())
+}
+
+fn to_f32s<T: Real>(v: &Vector3<T>) -> [f32; 3] {
+    [
+        v.x.to_f64() as f32,
+        v.y.to_f64() as f32,
+        v.z.to_f64() as f32,
+    ]
+}
+
+fn from_f32s<T: Real>(a: &[f32; 3]) -> Vector3<T> {
+    let [x, y, z] = *a;
+    Vector3::new(
+        T::of(f64::from(x)),
+        T::of(f64::from(y)),
+        T::of(f64::from(z)),
+    )
+}
+
+/// Appends little-endian fields to a byte buffer.
+struct Writer<'a> {
+    buf: &'a mut [u8],
+    len: usize,
+}
+
+impl Writer<'_> {
+    fn bytes<const N: usize>(&mut self, b: [u8; N]) -> Option<()> {
+        let dst = self.buf.get_mut(self.len..self.len.checked_add(N)?)?;
+        dst.copy_from_slice(&b);
+        self.len += N;
+        Some(())
+    }
+    fn u8(&mut self, x: u8) -> Option<()> {
+        self.bytes([x])
+    }
+    fn f32(&mut self, x: f32) -> Option<()> {
+        self.bytes(x.to_le_bytes())
+    }
+    fn f64(&mut self, x: f64) -> Option<()> {
+        self.bytes(x.to_le_bytes())
+    }
+    fn f32s(&mut self, x: &[f32]) -> Option<()> {
+        x.iter().try_for_each(|v| self.f32(*v))
+    }
+    fn f64s(&mut self, x: &[f64]) -> Option<()> {
+        x.iter().try_for_each(|v| self.f64(*v))
+    }
+}
+
+/// Reads little-endian fields from the front of a byte slice.
+struct Reader<'a> {
+    rest: &'a [u8],
+}
+
+impl Reader<'_> {
+    fn bytes<const N: usize>(&mut self) -> Option<[u8; N]> {
+        let (head, tail) = self.rest.split_first_chunk::<N>()?;
+        self.rest = tail;
+        Some(*head)
+    }
+    fn u8(&mut self) -> Option<u8> {
+        self.bytes::<1>().map(|[b]| b)
+    }
+    fn u32(&mut self) -> Option<u32> {
+        self.bytes().map(u32::from_le_bytes)
+    }
+    fn f32(&mut self) -> Option<f32> {
+        self.bytes().map(f32::from_le_bytes)
+    }
+    fn f64(&mut self) -> Option<f64> {
+        self.bytes().map(f64::from_le_bytes)
+    }
+    fn f32s<const N: usize>(&mut self) -> Option<[f32; N]> {
+        let mut out = [0f32; N];
+        for slot in out.iter_mut() {
+            *slot = self.f32()?;
+        }
+        Some(out)
+    }
+    fn f64s<const N: usize>(&mut self) -> Option<[f64; N]> {
+        let mut out = [0f64; N];
+        for slot in out.iter_mut() {
+            *slot = self.f64()?;
+        }
+        Some(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    pub(crate) fn master(rate: bool) -> MasterNavMsg {
+        let h = core::f64::consts::FRAC_1_SQRT_2;
+        MasterNavMsg {
+            t: 12.5,
+            q_bm_n: [h, 0.0, 0.0, h],
+            v_n: [1.5, -2.25, 0.125],
+            lat_rad: 0.6544984694978736,
+            lon_rad: 2.118_977_208_085_815,
+            height_m: 12.0,
+            w_ib_bm: rate.then_some([0.01, -0.02, 0.03]),
+        }
+    }
+
+    fn payload(m: &Message) -> ([u8; 256], usize) {
+        let mut buf = [0xAAu8; 256];
+        let n = m.write_payload(&mut buf).unwrap();
+        assert_eq!(n, m.kind().payload_len());
+        (buf, n)
+    }
+
+    fn f64_at(b: &[u8], off: usize) -> f64 {
+        f64::from_le_bytes(b[off..off + 8].try_into().unwrap())
+    }
+    fn f32_at(b: &[u8], off: usize) -> f32 {
+        f32::from_le_bytes(b[off..off + 4].try_into().unwrap())
+    }
+    fn u32_at(b: &[u8], off: usize) -> u32 {
+        u32::from_le_bytes(b[off..off + 4].try_into().unwrap())
+    }
+
+    #[test]
+    fn kinds_are_consistent() {
+        for (i, k) in MessageKind::ALL.into_iter().enumerate() {
+            assert_eq!(k.stream_index(), i);
+            assert_eq!(MessageKind::from_type_byte(k.type_byte()), Some(k));
+        }
+        let known = (0..=255u8)
+            .filter(|b| MessageKind::from_type_byte(*b).is_some())
+            .count();
+        assert_eq!(known, 4);
+    }
+
+    #[test]
+    fn master_nav_layout() {
+        let m = master(true);
+        let (b, n) = payload(&Message::MasterNav(m));
+        assert_eq!(n, 85);
+        assert_eq!(f64_at(&b, 0), 12.5);
+        for (i, q) in m.q_bm_n.iter().enumerate() {
+            assert_eq!(f64_at(&b, 8 + 8 * i), *q);
+        }
+        assert_eq!(
+            [f32_at(&b, 40), f32_at(&b, 44), f32_at(&b, 48)],
+            [1.5, -2.25, 0.125]
+        );
+        assert_eq!(f64_at(&b, 52), m.lat_rad);
+        assert_eq!(f64_at(&b, 60), m.lon_rad);
+        assert_eq!(f32_at(&b, 68), 12.0);
+        assert_eq!(b[72], 1);
+        assert_eq!(
+            [f32_at(&b, 73), f32_at(&b, 77), f32_at(&b, 81)],
+            [0.01, -0.02, 0.03]
+        );
+        assert_eq!(b[85], 0xAA, "nothing written past the payload");
+        let back = Message::read_payload(MessageKind::MasterNav, &b[..n]).unwrap();
+        assert_eq!(back, Message::MasterNav(m));
+
+        let m = master(false);
+        let (b, n) = payload(&Message::MasterNav(m));
+        assert_eq!(b[72], 0);
+        assert!(b[73..85].iter().all(|x| *x == 0));
+        let back = Message::read_payload(MessageKind::MasterNav, &b[..n]).unwrap();
+        assert_eq!(back, Message::MasterNav(m));
+    }
+
+    #[test]
+    fn master_nav_bad_values() {
+        let (b, n) = payload(&Message::MasterNav(master(false)));
+        let read = |b: &[u8]| Message::read_payload(MessageKind::MasterNav, b);
+        let mut x = b;
+        x[72] = 2;
+        assert_eq!(read(&x[..n]), Err(PayloadError::BadValue));
+        let mut x = b;
+        x[80] = 1; // rate bytes set while the flag says absent
+        assert_eq!(read(&x[..n]), Err(PayloadError::BadValue));
+        let mut x = b;
+        x[8..16].copy_from_slice(&0.9f64.to_le_bytes()); // non-unit quaternion
+        assert_eq!(read(&x[..n]), Err(PayloadError::BadValue));
+        let mut x = b;
+        x[52..60].copy_from_slice(&2.0f64.to_le_bytes()); // latitude beyond 90°
+        assert_eq!(read(&x[..n]), Err(PayloadError::BadValue));
+        let mut x = b;
+        x[40..44].copy_from_slice(&f32::NAN.to_le_bytes());
+        assert_eq!(read(&x[..n]), Err(PayloadError::NonFinite));
+        let mut x = b;
+        x[0..8].copy_from_slice(&f64::INFINITY.to_le_bytes());
+        assert_eq!(read(&x[..n]), Err(PayloadError::NonFinite));
+        assert_eq!(read(&b[..n - 1]), Err(PayloadError::BadLength));
+        assert_eq!(read(&b[..n + 1]), Err(PayloadError::BadLength));
+        assert_eq!(read(&[]), Err(PayloadError::BadLength));
+    }
+
+    #[test]
+    fn imu_sample_layout() {
+        let m = ImuSampleMsg {
+            t: -3.0,
+            dtheta_b: [1e-5, 2e-5, 3e-5],
+            dv_b: [0.1, 0.2, 0.049],
+        };
+        let (b, n) = payload(&Message::ImuSample(m));
+        assert_eq!(n, 32);
+        assert_eq!(f64_at(&b, 0), -3.0);
+        assert_eq!(f32_at(&b, 8), 1e-5);
+        assert_eq!(f32_at(&b, 16), 3e-5);
+        assert_eq!(f32_at(&b, 20), 0.1);
+        assert_eq!(f32_at(&b, 28), 0.049);
+        let back = Message::read_payload(MessageKind::ImuSample, &b[..n]).unwrap();
+        assert_eq!(back, Message::ImuSample(m));
+    }
+
+    #[test]
+    fn estimates_layout() {
+        let v = |k: f32| [k, k + 1.0, k + 2.0];
+        let m = EstimatesMsg {
+            t: 100.0,
+            gyro_bias: v(1.0),
+            gyro_bias_sigma: v(10.0),
+            accel_bias: v(20.0),
+            accel_bias_sigma: v(30.0),
+            misalignment: v(40.0),
+            misalignment_sigma: v(50.0),
+            flexure: v(60.0),
+            flexure_sigma: v(70.0),
+            health: HealthFlags(0xBEEF),
+        };
+        let (b, n) = payload(&Message::Estimates(m));
+        assert_eq!(n, 106);
+        for (i, base) in [1.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0]
+            .into_iter()
+            .enumerate()
+        {
+            let off = 8 + 12 * i;
+            assert_eq!(f32_at(&b, off), base);
+            assert_eq!(f32_at(&b, off + 8), base + 2.0);
+        }
+        assert_eq!(&b[104..106], &[0xEF, 0xBE]);
+        let back = Message::read_payload(MessageKind::Estimates, &b[..n]).unwrap();
+        assert_eq!(back, Message::Estimates(m));
+        let mut bad = m;
+        bad.flexure_sigma[1] = -1.0;
+        assert_eq!(
+            Message::Estimates(bad).validate(),
+            Err(PayloadError::BadValue)
+        );
+    }
+
+    #[test]
+    fn status_layout() {
+        let mut c = [0u32; STATUS_COUNTERS];
+        for (i, x) in c.iter_mut().enumerate() {
+            *x = 1000 + i as u32;
+        }
+        let m = status_from_counters(7.0, &c);
+        assert_eq!(status_counters(&m), c);
+        assert_eq!(m.link.decoder.frames, 1000);
+        assert_eq!(m.link.decoder.bad_value, 1008);
+        assert_eq!(m.link.sequence.accepted, 1009);
+        assert_eq!(m.link.sequence.resyncs, 1015);
+        assert_eq!(m.engine.imu_samples, 1016);
+        assert_eq!(m.engine.resets, 1022);
+        assert_eq!(m.health.updates, 1023);
+        assert_eq!(m.health.gated, 1024);
+        assert_eq!(m.health.bad_innovation_variance, 1029);
+        let (b, n) = payload(&Message::Status(m));
+        assert_eq!(n, 128);
+        assert_eq!(f64_at(&b, 0), 7.0);
+        for (i, want) in c.iter().enumerate() {
+            assert_eq!(u32_at(&b, 8 + 4 * i), *want);
+        }
+        let back = Message::read_payload(MessageKind::Status, &b[..n]).unwrap();
+        assert_eq!(back, Message::Status(m));
+    }
+
+    #[test]
+    fn short_buffer_refused() {
+        let m = Message::MasterNav(master(true));
+        let mut buf = [0u8; 84];
+        assert_eq!(m.write_payload(&mut buf), None);
+    }
+
+    #[test]
+    fn engine_conversions() {
+        let m = master(true);
+        let e: MasterNav<f64> = m.to_engine();
+        assert_eq!(MasterNavMsg::from_engine(&e), m);
+        let e32: MasterNav<f32> = m.to_engine();
+        let back = MasterNavMsg::from_engine(&e32);
+        assert_eq!(back.v_n, m.v_n);
+        assert_eq!(back.w_ib_bm, m.w_ib_bm);
+        assert!((back.q_bm_n[0] - m.q_bm_n[0]).abs() < 1e-7);
+        assert!(Message::MasterNav(back).validate().is_ok());
+
+        let s = ImuSampleMsg {
+            t: 1.0,
+            dtheta_b: [1.0, 2.0, 3.0],
+            dv_b: [4.0, 5.0, 6.0],
+        };
+        assert_eq!(ImuSampleMsg::from_engine(&s.to_engine::<f32>()), s);
+
+        let est = EstimatesMsg {
+            t: 2.0,
+            gyro_bias: [1e-6; 3],
+            gyro_bias_sigma: [1e-7; 3],
+            accel_bias: [1e-3; 3],
+            accel_bias_sigma: [1e-4; 3],
+            misalignment: [0.01; 3],
+            misalignment_sigma: [1e-4; 3],
+            flexure: [1e-4; 3],
+            flexure_sigma: [1e-5; 3],
+            health: HealthFlags(3),
+        };
+        assert_eq!(
+            EstimatesMsg::from_engine(&est.to_engine::<f64>(), est.health),
+            est
+        );
+    }
+
+    #[test]
+    fn health_flags() {
+        let h = Health::default();
+        let c = Counters::default();
+        assert_eq!(
+            HealthFlags::from_engine(&h, &c),
+            HealthFlags(HealthFlags::NO_MATCH_YET)
+        );
+        let h = Health {
+            gated_streak: 2,
+            variance_clamped: 1,
+            ..Health::default()
+        };
+        let c = Counters {
+            master_matched: 5,
+            master_dropped: 1,
+            resets: 1,
+            ..Counters::default()
+        };
+        let f = HealthFlags::from_engine(&h, &c);
+        assert!(f.contains(
+            HealthFlags::GATING
+                | HealthFlags::VARIANCE_CLAMPED
+                | HealthFlags::RESET
+                | HealthFlags::MASTER_LOST
+        ));
+        assert!(!f.contains(HealthFlags::NO_MATCH_YET));
+        assert!(!f.contains(HealthFlags::NON_FINITE));
+    }
+}

@@ -1,0 +1,221 @@
+//! The receiving end of the link: the decoder followed by one sequence tracker per stream.
+
+use crate::link::codec::{DecodeError, Decoder, DecoderCounters, Frame};
+use crate::link::message::MessageKind;
+use crate::link::sequence::{SequenceCounters, SequenceError, SequenceTracker, TimeRule};
+
+/// Everything the receiving side counts (sent to the host in the Status message).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LinkCounters {
+    /// The decoder's counters.
+    pub decoder: DecoderCounters,
+    /// The sequence trackers' counters, summed over the streams.
+    pub sequence: SequenceCounters,
+}
+
+/// A frame that passed every check.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Received {
+    /// The frame.
+    pub frame: Frame,
+    /// Messages of the same stream missed just before this one.
+    pub missed: u16,
+}
+
+/// Why a frame was not passed on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum LinkError {
+    /// The frame itself was bad.
+    Decode(DecodeError),
+    /// A good frame, refused by its stream's sequence tracker.
+    Sequence {
+        /// The stream.
+        kind: MessageKind,
+        /// Why.
+        error: SequenceError,
+    },
+}
+
+/// Decoder plus per-stream sequence checks. The streams that feed the engine
+/// (MasterNav, ImuSample) also require a strictly increasing time of validity.
+#[derive(Clone, Debug)]
+pub struct Receiver {
+    decoder: Decoder,
+    trackers: [SequenceTracker; 4],
+}
+
+impl Default for Receiver {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Receiver {
+    /// A receiver with no history.
+    pub const fn new() -> Self {
+        Self {
+            decoder: Decoder::new(),
+            trackers: [
+                SequenceTracker::new(Self::rule(MessageKind::ALL[0])),
+                SequenceTracker::new(Self::rule(MessageKind::ALL[1])),
+                SequenceTracker::new(Self::rule(MessageKind::ALL[2])),
+                SequenceTracker::new(Self::rule(MessageKind::ALL[3])),
+            ],
+        }
+    }
+
+    /// The time rule of a stream.
+    pub const fn rule(kind: MessageKind) -> TimeRule {
+        match kind {
+            MessageKind::MasterNav | MessageKind::ImuSample => TimeRule::StrictlyIncreasing,
+            MessageKind::Estimates | MessageKind::Status => TimeRule::Unchecked,
+        }
+    }
+
+    /// Feeds one byte (see [`Decoder::push`] for the guarantees).
+    pub fn push(&mut self, byte: u8) -> Option<Result<Received, LinkError>> {
+        let frame = match self.decoder.push(byte)? {
+            Ok(frame) => frame,
+            Err(e) => return Some(Err(LinkError::Decode(e))),
+        };
+        let kind = frame.message.kind();
+        let tracker = self.trackers.get_mut(kind.stream_index())?;
+        Some(
+            tracker
+                .check(frame.seq, frame.message.time())
+                .map(|missed| Received { frame, missed })
+                .map_err(|error| LinkError::Sequence { kind, error }),
+        )
+    }
+
+    /// The decoder's and all streams' counters.
+    pub fn counters(&self) -> LinkCounters {
+        LinkCounters {
+            decoder: self.decoder.counters(),
+            sequence: self
+                .trackers
+                .iter()
+                .fold(SequenceCounters::default(), |acc, t| {
+                    acc.merged(&t.counters())
+                }),
+        }
+    }
+
+    /// One stream's tracker.
+    pub fn tracker(&self, kind: MessageKind) -> Option<&SequenceTracker> {
+        self.trackers.get(kind.stream_index())
+    }
+
+    /// Forgets partial frames and every stream's history (counters are kept).
+    pub fn reset(&mut self) {
+        self.decoder.clear();
+        self.trackers.iter_mut().for_each(SequenceTracker::reset);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::link::codec::{encode, MAX_FRAME_LEN};
+    use crate::link::message::{EstimatesMsg, HealthFlags, ImuSampleMsg, Message};
+
+    fn imu(t: f64) -> Message {
+        Message::ImuSample(ImuSampleMsg {
+            t,
+            dtheta_b: [0.0; 3],
+            dv_b: [0.0, 0.0, 0.049],
+        })
+    }
+
+    fn send(rx: &mut Receiver, seq: u16, m: &Message) -> Option<Result<Received, LinkError>> {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let n = encode(seq, m, &mut buf).unwrap();
+        let mut last = None;
+        for b in &buf[..n] {
+            if let Some(r) = rx.push(*b) {
+                assert!(last.is_none(), "one result per frame");
+                last = Some(r);
+            }
+        }
+        last
+    }
+
+    #[test]
+    fn state_is_small() {
+        assert!(core::mem::size_of::<Decoder>() <= 320);
+        assert!(core::mem::size_of::<Receiver>() <= 560);
+    }
+
+    #[test]
+    fn gaps_duplicates_and_stale() {
+        let mut rx = Receiver::new();
+        assert_eq!(send(&mut rx, 7, &imu(1.0)).unwrap().unwrap().missed, 0);
+        assert_eq!(send(&mut rx, 10, &imu(2.0)).unwrap().unwrap().missed, 2);
+        assert_eq!(
+            send(&mut rx, 10, &imu(2.0)),
+            Some(Err(LinkError::Sequence {
+                kind: MessageKind::ImuSample,
+                error: SequenceError::Duplicate
+            }))
+        );
+        assert_eq!(
+            send(&mut rx, 9, &imu(1.5)),
+            Some(Err(LinkError::Sequence {
+                kind: MessageKind::ImuSample,
+                error: SequenceError::OutOfOrder { behind: 1 }
+            }))
+        );
+        assert_eq!(
+            send(&mut rx, 11, &imu(2.0)),
+            Some(Err(LinkError::Sequence {
+                kind: MessageKind::ImuSample,
+                error: SequenceError::Stale
+            }))
+        );
+        let c = rx.counters().sequence;
+        assert_eq!(
+            (
+                c.accepted,
+                c.gaps,
+                c.missed,
+                c.duplicates,
+                c.out_of_order,
+                c.stale
+            ),
+            (2, 1, 2, 1, 1, 1)
+        );
+        assert_eq!(
+            rx.tracker(MessageKind::ImuSample).unwrap().last(),
+            Some((10, 2.0))
+        );
+    }
+
+    #[test]
+    fn streams_are_independent_and_estimates_time_unchecked() {
+        let mut rx = Receiver::new();
+        let est = |t| {
+            Message::Estimates(EstimatesMsg {
+                t,
+                gyro_bias: [0.0; 3],
+                gyro_bias_sigma: [0.0; 3],
+                accel_bias: [0.0; 3],
+                accel_bias_sigma: [0.0; 3],
+                misalignment: [0.0; 3],
+                misalignment_sigma: [0.0; 3],
+                flexure: [0.0; 3],
+                flexure_sigma: [0.0; 3],
+                health: HealthFlags(0),
+            })
+        };
+        assert!(send(&mut rx, 0, &imu(1.0)).unwrap().is_ok());
+        assert!(send(&mut rx, 0, &est(5.0)).unwrap().is_ok());
+        // Same time again is fine for estimates (no filter update in between).
+        assert!(send(&mut rx, 1, &est(5.0)).unwrap().is_ok());
+        assert!(send(&mut rx, 1, &imu(1.1)).unwrap().is_ok());
+        assert_eq!(rx.counters().sequence.accepted, 4);
+        assert_eq!(rx.counters().sequence.rejected(), 0);
+        rx.reset();
+        assert!(send(&mut rx, 0, &imu(0.0)).unwrap().is_ok());
+    }
+}
