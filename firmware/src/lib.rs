@@ -2,9 +2,9 @@
 //!
 //! The board binary (`src/main.rs`) is a thin shell around this library: it owns the
 //! hardware and the runtime (vector table, panic and fault handlers, the defmt transport),
-//! and this library owns the logic. Library code logs through the `fmt` shim (module `fmt`), which maps
-//! to defmt on the board and to nothing on the host, so host tests link without a defmt
-//! logger.
+//! and this library owns the logic. Library code logs through the macros of the `fmt`
+//! module, which map to defmt on the board and to nothing on the host, so host tests link
+//! without a defmt logger.
 #![no_std]
 #![deny(unsafe_code)]
 #![cfg_attr(
