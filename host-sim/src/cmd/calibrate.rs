@@ -5,6 +5,7 @@ use crate::calib::config::CalibConfig;
 use crate::calib::flexure_id::identify_flexure;
 use crate::calib::run::{self as runner, Precision};
 use crate::calib::score::score;
+use crate::cmd::common::ModelArgs;
 use crate::recording::read_recording;
 use crate::report::{plots, summary};
 use std::path::{Path, PathBuf};
@@ -24,24 +25,16 @@ pub struct Args {
     /// Numeric precision of the engine.
     #[arg(long, value_enum, default_value = "f64")]
     pub precision: Precision,
-    /// Leave the flexure-bent lever arm out of the model (the paper's baseline).
-    #[arg(long)]
-    pub no_dynamic_lever_arm: bool,
-    /// Identify the flexure model from the recording even when the configuration
-    /// fixes it (`identify_flexure = true` in the configuration does the same).
-    #[arg(long)]
-    pub identify_flexure: bool,
+    /// Model switches.
+    #[command(flatten)]
+    pub model: ModelArgs,
 }
 
-/// Identifies the flexure model when asked to and puts it in the configuration;
-/// returns where the model came from. A failed identification keeps the configured
-/// model and says why.
-pub fn choose_flexure(
-    rec: &crate::recording::Recording,
-    cfg: &mut CalibConfig,
-    force: bool,
-) -> String {
-    if !(cfg.identify_flexure || force) {
+/// Identifies the flexure model when the configuration asks for it
+/// (`identify_flexure`) and puts it in the configuration; returns where the model
+/// came from. A failed identification keeps the configured model and says why.
+pub fn choose_flexure(rec: &crate::recording::Recording, cfg: &mut CalibConfig) -> String {
+    if !cfg.identify_flexure {
         return "configured".to_string();
     }
     match identify_flexure(rec, cfg) {
@@ -90,15 +83,13 @@ pub fn resolve_config(
 pub fn run(a: &Args) -> Result<(), String> {
     let rec = read_recording(&a.rec_dir).map_err(|e| e.to_string())?;
     let (mut cfg, origin) = resolve_config(&a.rec_dir, a.config.as_deref())?;
-    if a.no_dynamic_lever_arm {
-        cfg.dynamic_lever_arm = false;
-    }
+    a.model.apply(&mut cfg);
     if cfg.matching_flags().angular_rate && !rec.master_has_rate() {
         cfg.matching.retain(|m| m != "angular_rate");
         eprintln!("flexcal: the master gives no angular rate: angular-rate matching is off (velocity and attitude matching only)");
     }
     eprintln!("flexcal: configuration: {origin}");
-    let flexure_source = choose_flexure(&rec, &mut cfg, a.identify_flexure);
+    let flexure_source = choose_flexure(&rec, &mut cfg);
     eprintln!("flexcal: flexure model: {flexure_source}");
     let res = runner::run(&rec, &cfg, a.precision)?;
     let sc = rec.truth.as_ref().and_then(|t| score(&res, t));

@@ -1,6 +1,7 @@
 //! The subcommands of `flexcal`, one module each.
 
 pub mod calibrate;
+pub mod common;
 pub mod identify;
 pub mod montecarlo;
 pub mod paper_figures;

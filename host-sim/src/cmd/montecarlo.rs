@@ -5,6 +5,7 @@
 use crate::calib::config::CalibConfig;
 use crate::calib::run::{run as calibrate, Precision};
 use crate::calib::score::score;
+use crate::cmd::common::{ModelArgs, ScenarioArgs};
 use crate::cmd::TOOL_VERSION;
 use crate::plot::{Band, Figure, Panel, Series};
 use crate::sim::{simulate, Scenario};
@@ -17,31 +18,22 @@ use std::path::PathBuf;
 /// Arguments of `flexcal montecarlo`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Built-in scenario or scenario file.
-    #[arg(long, default_value = "matched")]
-    pub scenario: String,
+    /// Scenario, duration, first seed.
+    #[command(flatten)]
+    pub scenario: ScenarioArgs,
     /// Number of runs (seeds `seed .. seed + runs`).
     #[arg(long, default_value_t = 50)]
     pub runs: usize,
     /// Output directory.
     #[arg(long)]
     pub out: PathBuf,
-    /// First seed.
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// Override the scenario's duration (s).
-    #[arg(long)]
-    pub duration: Option<f64>,
     /// Numeric precision of the engine.
     #[arg(long, value_enum, default_value = "f64")]
     pub precision: Precision,
-    /// Leave the flexure-bent lever arm out of the filter's model.
-    #[arg(long)]
-    pub no_dynamic_lever_arm: bool,
-    /// Identify the flexure model from each run's recording instead of using the
-    /// scenario's true model.
-    #[arg(long)]
-    pub identify_flexure: bool,
+    /// Model switches (`--identify-flexure` identifies the flexure from each run's
+    /// recording instead of using the scenario's true model).
+    #[command(flatten)]
+    pub model: ModelArgs,
 }
 
 /// One run's final errors (9: gyro bias, accel bias, misalignment), σ and NEES.
@@ -82,7 +74,7 @@ pub fn one_run(
     let rec = simulate(sc, seed).recording;
     let mut cfg = cfg.clone();
     if cfg.identify_flexure {
-        let source = crate::cmd::calibrate::choose_flexure(&rec, &mut cfg, true);
+        let source = crate::cmd::calibrate::choose_flexure(&rec, &mut cfg);
         if cfg.flexure_axes.is_none() {
             return Err(format!("seed {seed}: {source}"));
         }
@@ -136,14 +128,9 @@ const NAMES: [&str; 9] = [
 
 /// Runs `flexcal montecarlo`.
 pub fn run(a: &Args) -> Result<(), String> {
-    let mut sc = Scenario::load(&a.scenario)?;
-    if let Some(d) = a.duration {
-        sc.duration_s = d;
-        sc.validate()?;
-    }
+    let sc = a.scenario.load()?;
     let mut cfg = CalibConfig::declared_for(&sc, 1.0 / sc.master.rate_hz);
-    cfg.dynamic_lever_arm = !a.no_dynamic_lever_arm;
-    cfg.identify_flexure = a.identify_flexure;
+    a.model.apply(&mut cfg);
     let bar = ProgressBar::new(a.runs as u64);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {elapsed} elapsed, ETA {eta}")
@@ -152,7 +139,7 @@ pub fn run(a: &Args) -> Result<(), String> {
     let results: Result<Vec<RunResult>, String> = (0..a.runs as u64)
         .into_par_iter()
         .map(|i| {
-            let r = one_run(&sc, &cfg, a.seed + i, a.precision);
+            let r = one_run(&sc, &cfg, a.scenario.seed + i, a.precision);
             bar.inc(1);
             r
         })
@@ -168,7 +155,7 @@ pub fn run(a: &Args) -> Result<(), String> {
         "tool_version": TOOL_VERSION,
         "scenario": sc.name,
         "runs": runs.len(),
-        "first_seed": a.seed,
+        "first_seed": a.scenario.seed,
         "duration_s": sc.duration_s,
         "precision": a.precision,
         "dynamic_lever_arm": cfg.dynamic_lever_arm,

@@ -5,26 +5,21 @@
 use crate::calib::config::CalibConfig;
 use crate::calib::run::{run as calibrate, EstimateRow, Precision};
 use crate::calib::score::score;
+use crate::cmd::common::ScenarioArgs;
 use crate::plot::{Figure, Panel, Series};
-use crate::sim::{simulate, Scenario};
+use crate::sim::simulate;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
 /// Arguments of `flexcal paper-figures`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Built-in scenario or scenario file.
-    #[arg(long, default_value = "paper")]
-    pub scenario: String,
+    /// Scenario, duration, seed.
+    #[command(flatten)]
+    pub scenario: ScenarioArgs,
     /// Output directory (SVG figures and `table.md`).
     #[arg(long)]
     pub out: PathBuf,
-    /// Random seed.
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// Override the scenario's duration (s).
-    #[arg(long)]
-    pub duration: Option<f64>,
 }
 
 fn figure(
@@ -67,12 +62,9 @@ fn figure(
 
 /// Runs `flexcal paper-figures`.
 pub fn run(a: &Args) -> Result<(), String> {
-    let mut sc = Scenario::load(&a.scenario)?;
-    if let Some(d) = a.duration {
-        sc.duration_s = d;
-        sc.validate()?;
-    }
-    let rec = simulate(&sc, a.seed).recording;
+    let sc = a.scenario.load()?;
+    let seed = a.scenario.seed;
+    let rec = simulate(&sc, seed).recording;
     let truth = rec.truth.as_ref().ok_or("simulation wrote no truth")?;
     let cfg_with = CalibConfig::declared_for(&sc, 1.0 / sc.master.rate_hz);
     let cfg_without = CalibConfig {
@@ -108,7 +100,7 @@ pub fn run(a: &Args) -> Result<(), String> {
         .map_err(|e| e.to_string())?;
     f5.write(&a.out.join(format!("fig5-gyro-bias-{stem}.svg")))
         .map_err(|e| e.to_string())?;
-    let mut table = format!("Final errors on `{stem}` (seed {}, {} s)\n\n| model | gyro bias error x, y, z (deg/h) | accel bias error x, y, z (mg) | misalignment error x, y, z (arcsec) |\n|---|---|---|---|\n", a.seed, sc.duration_s);
+    let mut table = format!("Final errors on `{stem}` (seed {}, {} s)\n\n| model | gyro bias error x, y, z (deg/h) | accel bias error x, y, z (mg) | misalignment error x, y, z (arcsec) |\n|---|---|---|---|\n", seed, sc.duration_s);
     for (name, res) in [
         ("dynamic lever arm compensated", &with),
         ("not compensated", &without),
