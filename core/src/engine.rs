@@ -21,6 +21,9 @@ use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 pub const ALIGN_DEPTH: usize = 128;
 /// An IMU interval this many times longer than the previous one is a gap.
 const GAP_FACTOR: f64 = 2.5;
+/// IMU samples held back waiting for the master messages of their time (at 200 Hz,
+/// 0.32 s of master latency is absorbed exactly; beyond it samples go on alone).
+pub const IMU_HOLD_DEPTH: usize = 64;
 /// Master messages that may wait for the slave to catch up.
 pub const PENDING_DEPTH: usize = 8;
 
@@ -200,6 +203,16 @@ struct Epoch<T: Real> {
     dt: f64,
 }
 
+/// An IMU sample waiting for the master messages of its time.
+#[derive(Clone, Copy, Debug)]
+struct HeldImu<T: Real> {
+    s: ImuIncrement<T>,
+    /// Length of its interval (s).
+    dt: f64,
+    /// Whether a gap precedes it.
+    gap: bool,
+}
+
 #[derive(Clone, Copy, Debug)]
 struct PrevMaster<T: Real> {
     t: f64,
@@ -215,6 +228,7 @@ pub struct Engine<T: Real> {
     kf: Kalman<T, N>,
     buffer: AlignBuffer<T, ALIGN_DEPTH>,
     pending: Deque<MasterNav<T>, PENDING_DEPTH>,
+    held: Deque<HeldImu<T>, IMU_HOLD_DEPTH>,
     gyro_bias: Vector3<T>,
     accel_bias: Vector3<T>,
     misalignment: Vector3<T>,
@@ -245,6 +259,7 @@ impl<T: Real> Engine<T> {
             strapdown: None,
             buffer: AlignBuffer::new(),
             pending: Deque::new(),
+            held: Deque::new(),
             gyro_bias: Vector3::zeros(),
             accel_bias: Vector3::zeros(),
             misalignment: cfg.initial_misalignment_rad,
@@ -371,7 +386,7 @@ impl<T: Real> Engine<T> {
             overflow = true;
         }
         let _ = self.pending.push_back(msg);
-        let reports = self.process_pending();
+        let reports = self.advance();
         if overflow {
             Err(EngineError::PendingOverflow)
         } else {
@@ -379,8 +394,11 @@ impl<T: Real> Engine<T> {
         }
     }
 
-    /// Integrates one IMU sample, runs the filter's time update when a period has
-    /// elapsed, and matches any master message whose time has been reached.
+    /// Takes one IMU sample. It is integrated (strapdown, alignment buffer, the
+    /// filter's time update when a period has elapsed) once a master message at or
+    /// after its interval has arrived, or when `IMU_HOLD_DEPTH` later samples have:
+    /// so a master message arriving late is still matched at its own filter epoch,
+    /// and the estimates do not depend on the link's latency.
     pub fn push_imu(&mut self, s: ImuIncrement<T>) -> Result<StepReports<T>, EngineError> {
         if !(s.t.is_finite()
             && s.dtheta_b
@@ -404,8 +422,60 @@ impl<T: Real> Engine<T> {
         // corrections must not pair this interval with one from before the gap.
         let gap = self.last_imu_dt.is_some_and(|last| dt > GAP_FACTOR * last);
         self.last_imu_dt = Some(dt);
+        let mut reports = StepReports::new();
+        if self.held.is_full() {
+            // The master is later than the hold allows: the oldest sample goes on alone.
+            if let Some(oldest) = self.held.pop_front() {
+                self.integrate(&oldest);
+                reports = self.process_pending();
+            }
+        }
+        let _ = self.held.push_back(HeldImu { s, dt, gap });
+        for r in self.advance() {
+            let _ = reports.push(r);
+        }
+        Ok(reports)
+    }
+
+    /// Integrates every held IMU sample (end of stream: no master message will come
+    /// for them) and matches what that reaches.
+    pub fn flush(&mut self) -> StepReports<T> {
+        let mut reports = StepReports::new();
+        while let Some(h) = self.held.pop_front() {
+            self.integrate(&h);
+            for r in self.process_pending() {
+                let _ = reports.push(r);
+            }
+        }
+        reports
+    }
+
+    /// Integrates held IMU samples as far as the waiting master messages need (the
+    /// sample whose interval contains a master's time of validity, and all before it),
+    /// matching each master as soon as the slave solution reaches it.
+    fn advance(&mut self) -> StepReports<T> {
+        let mut reports = self.process_pending();
+        while let Some(front) = self.held.front() {
+            let interval_start = front.s.t - front.dt;
+            let wanted = self.pending.back().is_some_and(|m| m.t > interval_start);
+            if !wanted {
+                break;
+            }
+            if let Some(h) = self.held.pop_front() {
+                self.integrate(&h);
+            }
+            for r in self.process_pending() {
+                let _ = reports.push(r);
+            }
+        }
+        reports
+    }
+
+    /// One IMU sample into the strapdown, the alignment buffer and the filter's time update.
+    fn integrate(&mut self, h: &HeldImu<T>) {
+        let (s, dt) = (&h.s, h.dt);
         if let Some(sd) = self.strapdown.as_mut() {
-            if gap {
+            if h.gap {
                 sd.reset_history();
             }
             let dtt = T::of(dt);
@@ -431,7 +501,7 @@ impl<T: Real> Engine<T> {
             }
             self.maybe_predict(s.t);
         } else {
-            // Not initialized yet: keep the raw increments so the rate is available.
+            // Not initialized yet: keep the raw increments for the start.
             self.buffer.push(Snapshot {
                 t: s.t,
                 q_b_n: UnitQuaternion::identity(),
@@ -441,7 +511,6 @@ impl<T: Real> Engine<T> {
                 dt,
             });
         }
-        Ok(self.process_pending())
     }
 
     fn maybe_predict(&mut self, t: f64) {
