@@ -126,6 +126,38 @@ const NAMES: [&str; 9] = [
     "bgx", "bgy", "bgz", "bax", "bay", "baz", "mux", "muy", "muz",
 ];
 
+/// RMS error over mean σ for each calibrated state (1: the filter's σ is right;
+/// the bound is 1.3), one point per state in the order of `NAMES`.
+fn ratio_figure(scenario: &str, agg: &Aggregate) -> Figure {
+    let x: Vec<f64> = (0..NAMES.len()).map(|i| i as f64).collect();
+    let ratio: Vec<f64> = agg
+        .rms
+        .iter()
+        .zip(&agg.mean_sigma)
+        .map(|(r, s)| r / s)
+        .collect();
+    let line = |name: &str, v: f64| Series {
+        name: name.into(),
+        x: x.clone(),
+        y: vec![v; x.len()],
+    };
+    Figure {
+        title: format!("Monte Carlo `{scenario}`: RMS error / mean σ per state"),
+        x_label: format!("state: {}", NAMES.join(", ")),
+        panels: vec![Panel {
+            title: "RMS final error over the filter's mean σ".into(),
+            y_label: "ratio".into(),
+            series: vec![Series {
+                name: "RMS / mean σ".into(),
+                x: x.clone(),
+                y: ratio,
+            }],
+            bands: vec![],
+            dashed: vec![line("1 (consistent)", 1.0), line("1.3 (bound)", 1.3)],
+        }],
+    }
+}
+
 /// Runs `flexcal montecarlo`.
 pub fn run(a: &Args) -> Result<(), String> {
     let sc = a.scenario.load()?;
@@ -200,6 +232,9 @@ pub fn run(a: &Args) -> Result<(), String> {
         }],
     };
     fig.write(&a.out.join("nees.svg"))
+        .map_err(|e| e.to_string())?;
+    ratio_figure(&sc.name, &agg)
+        .write(&a.out.join("rms_over_sigma.svg"))
         .map_err(|e| e.to_string())?;
     println!(
         "Monte Carlo `{}`: {} runs of {} s ({:?})",
