@@ -33,6 +33,16 @@ pub struct SlaveAt<T: Real> {
     pub v_n: Vector3<T>,
 }
 
+/// The slave's raw gyro rate at a time, and how its white noise is scaled.
+#[derive(Clone, Copy, Debug)]
+pub struct RateAt<T: Real> {
+    /// Raw (not bias-corrected) rate, slave body (rad/s).
+    pub raw_b: Vector3<T>,
+    /// Σ wᵢ²/dtᵢ over the interpolation weights (1/s): the rate's noise variance is
+    /// the gyro angle-random-walk density squared times this.
+    pub noise_gain: f64,
+}
+
 /// Why the buffer could not answer for a time.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum AlignError {
@@ -106,33 +116,33 @@ impl<T: Real, const M: usize> AlignBuffer<T, M> {
         Err(AlignError::NotYet)
     }
 
-    /// Mean raw gyro rate over `(ta, tb]` (rad/s, slave body), from the increments of
-    /// the IMU intervals overlapping it, each weighted by its overlap.
-    pub fn mean_raw_rate(&self, ta: f64, tb: f64) -> Result<Vector3<T>, AlignError> {
-        let oldest_start = self.ring.front().map(|s| s.t - s.dt);
-        match (oldest_start, self.ring.back()) {
-            (Some(start), Some(last)) => {
-                if ta < start - 1e-9 {
-                    return Err(AlignError::TooOld);
-                }
-                if tb > last.t + 1e-9 {
-                    return Err(AlignError::NotYet);
-                }
-            }
-            _ => return Err(AlignError::NotYet),
-        }
-        if tb <= ta {
+    /// Raw gyro rate at time `t` (rad/s, slave body): the straight line through the
+    /// mean rates of the IMU interval containing `t` and the one before it (each mean
+    /// belongs to its interval's midpoint), evaluated at `t`. Each master message thus
+    /// uses its own two intervals, so successive rate matches share no data and their
+    /// noise stays white.
+    pub fn rate_at(&self, t: f64) -> Result<RateAt<T>, AlignError> {
+        if self.ring.back().is_none_or(|s| t > s.t) {
             return Err(AlignError::NotYet);
         }
-        let mut sum = Vector3::zeros();
-        for s in self.ring.iter() {
-            let (s0, s1) = (s.t - s.dt, s.t);
-            let overlap = (s1.min(tb) - s0.max(ta)).max(0.0);
-            if overlap > 0.0 && s.dt > 0.0 {
-                sum += s.dtheta_raw_b * T::of(overlap / s.dt);
+        let mut prev: Option<&Snapshot<T>> = None;
+        for s in self.ring.iter().filter(|s| s.dt > 0.0) {
+            if s.t >= t {
+                let Some(p) = prev else {
+                    return Err(AlignError::TooOld);
+                };
+                let (m0, m1) = (p.t - p.dt / 2.0, s.t - s.dt / 2.0);
+                let lambda = if m1 > m0 { (t - m0) / (m1 - m0) } else { 1.0 };
+                let r0 = p.dtheta_raw_b / T::of(p.dt);
+                let r1 = s.dtheta_raw_b / T::of(s.dt);
+                return Ok(RateAt {
+                    raw_b: r0 * T::of(1.0 - lambda) + r1 * T::of(lambda),
+                    noise_gain: (1.0 - lambda) * (1.0 - lambda) / p.dt + lambda * lambda / s.dt,
+                });
             }
+            prev = Some(s);
         }
-        Ok(sum / T::of(tb - ta))
+        Err(AlignError::NotYet)
     }
 
     /// Applies a closed-loop correction to every stored snapshot: velocity minus
@@ -175,16 +185,24 @@ mod tests {
     }
 
     #[test]
-    fn mean_rate_weights_partial_intervals() {
+    fn rate_at_interpolates_a_linear_rate_exactly() {
         let mut b = AlignBuffer::<f64, 8>::new();
+        // ω(t) = 0.3 + 2 t: the mean over (t−dt, t] is ω at the midpoint.
         for k in 1..=8 {
-            b.push(snap(k as f64 * 0.005, 0.0, 0.3));
+            let t = k as f64 * 0.005;
+            let mid = t - 0.0025;
+            let mut s = snap(t, 0.0, 0.0);
+            s.dtheta_raw_b = Vector3::new(0.0, 0.0, (0.3 + 2.0 * mid) * 0.005);
+            b.push(s);
         }
-        let r = b.mean_raw_rate(0.0125, 0.0325).unwrap();
-        assert!((r.z - 0.3).abs() < 1e-12);
-        assert_eq!(
-            b.mean_raw_rate(-0.01, 0.02).unwrap_err(),
-            AlignError::TooOld
-        );
+        for t in [0.02, 0.0215, 0.04] {
+            let r = b.rate_at(t).unwrap();
+            assert!((r.raw_b.z - (0.3 + 2.0 * t)).abs() < 1e-12, "t = {t}");
+        }
+        // At an interval's end the line is extrapolated by half a sample: weights −0.5, 1.5.
+        let g = b.rate_at(0.04).unwrap().noise_gain;
+        assert!((g - (0.25 + 2.25) / 0.005).abs() < 1e-9);
+        assert_eq!(b.rate_at(0.005).unwrap_err(), AlignError::TooOld);
+        assert_eq!(b.rate_at(0.05).unwrap_err(), AlignError::NotYet);
     }
 }

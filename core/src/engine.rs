@@ -45,7 +45,9 @@ pub struct MeasurementNoise<T> {
     pub velocity_mps: T,
     /// Attitude matching, per axis (rad).
     pub attitude_rad: T,
-    /// Angular-rate matching, per axis (rad/s), for the mean over one filter period.
+    /// The master's angular-rate noise, per axis (rad/s). The slave gyro's part of the
+    /// rate-matching noise is added per message from the process noise's angle random
+    /// walk and the interpolation weights (`AlignBuffer::rate_at`).
     pub rate_radps: T,
 }
 
@@ -217,7 +219,6 @@ struct HeldImu<T: Real> {
 struct PrevMaster<T: Real> {
     t: f64,
     q_bm_n: UnitQuaternion<T>,
-    w_ib_bm: Option<Vector3<T>>,
 }
 
 /// The engine. Feed it with [`Engine::push_imu`] and [`Engine::push_master`].
@@ -431,7 +432,8 @@ impl<T: Real> Engine<T> {
             }
         }
         let _ = self.held.push_back(HeldImu { s, dt, gap });
-        for r in self.advance() {
+        // Slice iteration: a heapless `Vec`'s by-value iterator keeps a panic path.
+        for r in self.advance().iter().copied() {
             let _ = reports.push(r);
         }
         Ok(reports)
@@ -443,7 +445,7 @@ impl<T: Real> Engine<T> {
         let mut reports = StepReports::new();
         while let Some(h) = self.held.pop_front() {
             self.integrate(&h);
-            for r in self.process_pending() {
+            for r in self.process_pending().iter().copied() {
                 let _ = reports.push(r);
             }
         }
@@ -464,7 +466,7 @@ impl<T: Real> Engine<T> {
             if let Some(h) = self.held.pop_front() {
                 self.integrate(&h);
             }
-            for r in self.process_pending() {
+            for r in self.process_pending().iter().copied() {
                 let _ = reports.push(r);
             }
         }
@@ -572,7 +574,6 @@ impl<T: Real> Engine<T> {
             self.prev_master = Some(PrevMaster {
                 t: msg.t,
                 q_bm_n: msg.q_bm_n,
-                w_ib_bm: msg.w_ib_bm,
             });
         }
         reports
@@ -591,12 +592,12 @@ impl<T: Real> Engine<T> {
             v_n: msg.v_n + lever_v,
             pos: earth::offset_position(&msg.pos, &(c_bm_n * r0)),
         };
-        let raw: Vec<Snapshot<T>, ALIGN_DEPTH> = self
-            .buffer
-            .iter()
-            .filter(|s| s.t > msg.t)
-            .copied()
-            .collect();
+        // Pushed one by one: `collect` into a heapless `Vec` keeps a panic path (its
+        // capacity check), which the board image must not link. Same capacity, so no loss.
+        let mut raw: Vec<Snapshot<T>, ALIGN_DEPTH> = Vec::new();
+        for s in self.buffer.iter().filter(|s| s.t > msg.t) {
+            let _ = raw.push(*s);
+        }
         self.buffer.clear();
         let mut sd = Strapdown::new(nav);
         let start = Snapshot {
@@ -644,27 +645,29 @@ impl<T: Real> Engine<T> {
         self.prev_master = Some(PrevMaster {
             t: msg.t,
             q_bm_n: msg.q_bm_n,
-            w_ib_bm: msg.w_ib_bm,
         });
         self.last_update_t = msg.t;
     }
 
     /// The master body's rate relative to the Earth (rad/s, master body), for the
-    /// lever-arm velocity: from the master's rate when given, else from the change of
-    /// its attitude since the previous message, else zero.
-    fn master_rate_wrt_earth(&self, msg: &MasterNav<T>, c_bm_n: &Matrix3<T>) -> Vector3<T> {
+    /// lever-arm velocity, with the variance of its noise per axis (rad²/s²): from the
+    /// master's rate when given (its declared noise), else from the change of its
+    /// attitude since the previous message (√2 σ_att / Δt), else zero with no noise.
+    fn master_rate_wrt_earth(&self, msg: &MasterNav<T>, c_bm_n: &Matrix3<T>) -> (Vector3<T>, T) {
+        let noise = &self.cfg.measurement_noise;
         let w_ie_b = c_bm_n.transpose() * earth::earth_rate_n(msg.pos.lat_rad);
         if let Some(w) = msg.w_ib_bm {
-            return w - w_ie_b;
+            return (w - w_ie_b, noise.rate_radps * noise.rate_radps);
         }
         match self.prev_master {
             Some(p) if msg.t > p.t && msg.t - p.t <= 2.5 * self.cfg.filter_period_s.max(1e-3) => {
                 let dt = T::of(msg.t - p.t);
                 let w_nb = quat_log(&(p.q_bm_n.inverse() * msg.q_bm_n)) / dt;
                 let w_en = earth::transport_rate_n(&msg.pos, &msg.v_n);
-                w_nb + c_bm_n.transpose() * w_en
+                let sigma = noise.attitude_rad / dt;
+                (w_nb + c_bm_n.transpose() * w_en, T::of(2.0) * sigma * sigma)
             }
-            _ => Vector3::zeros(),
+            _ => (Vector3::zeros(), T::zero()),
         }
     }
 
@@ -680,7 +683,7 @@ impl<T: Real> Engine<T> {
         let m = self.cfg.matching;
 
         if m.velocity {
-            let w_eb = self.master_rate_wrt_earth(msg, &c_bm_n);
+            let (w_eb, w_eb_var) = self.master_rate_wrt_earth(msg, &c_bm_n);
             let r0 = self.cfg.lever_arm_m;
             let z = model::velocity_residual(&slave.v_n, &msg.v_n, &c_bm_n, &w_eb, &r0);
             let r_bend = self.cfg.bending.matrix(&r0);
@@ -689,8 +692,10 @@ impl<T: Real> Engine<T> {
                 &w_eb,
                 self.cfg.dynamic_lever_arm.then_some(&r_bend),
             );
-            let r =
-                self.cfg.measurement_noise.velocity_mps * self.cfg.measurement_noise.velocity_mps;
+            // The master's velocity noise, plus the rate noise carried by the lever arm:
+            // var(n_ω × r0) averaged over the axes is ⅔ |r0|² σ_ω².
+            let sigma_v = self.cfg.measurement_noise.velocity_mps;
+            let r = sigma_v * sigma_v + T::of(2.0 / 3.0) * r0.norm_squared() * w_eb_var;
             report.velocity = Some(self.update3(&rows, &z, r, gate));
         }
         if m.attitude {
@@ -701,25 +706,21 @@ impl<T: Real> Engine<T> {
             report.attitude = Some(self.update3(&rows, &z, r, gate));
         }
         if m.angular_rate {
-            if let (Some(w_now), Some(prev)) = (msg.w_ib_bm, self.prev_master) {
-                if let (Some(w_prev), true) = (
-                    prev.w_ib_bm,
-                    msg.t - prev.t <= 2.5 * self.cfg.filter_period_s,
-                ) {
-                    if let Ok(w_s_raw) = self.buffer.mean_raw_rate(prev.t, msg.t) {
-                        let w_m_mean = (w_prev + w_now) * T::of(0.5);
-                        let w_m_bs = exp_so3(&self.misalignment).transpose() * w_m_mean;
-                        let z = model::rate_residual(
-                            &(w_s_raw - self.gyro_bias),
-                            &self.misalignment,
-                            &w_m_mean,
-                        );
-                        let rows = model::rate_rows(&w_m_bs, &jr);
-                        let r = self.cfg.measurement_noise.rate_radps
-                            * self.cfg.measurement_noise.rate_radps;
-                        report.angular_rate = Some(self.update3(&rows, &z, r, gate));
-                    }
-                }
+            // The master's rate at t_v against the slave's, interpolated at t_v: each
+            // message uses its own IMU intervals and its own master sample (white noise).
+            if let (Some(w_m), Ok(slave_rate)) = (msg.w_ib_bm, self.buffer.rate_at(msg.t)) {
+                let w_m_bs = exp_so3(&self.misalignment).transpose() * w_m;
+                let z = model::rate_residual(
+                    &(slave_rate.raw_b - self.gyro_bias),
+                    &self.misalignment,
+                    &w_m,
+                );
+                let rows = model::rate_rows(&w_m_bs, &jr);
+                let noise = &self.cfg.measurement_noise;
+                let arw = self.cfg.process_noise.gyro_arw;
+                let r =
+                    noise.rate_radps * noise.rate_radps + arw * arw * T::of(slave_rate.noise_gain);
+                report.angular_rate = Some(self.update3(&rows, &z, r, gate));
             }
         }
         self.feedback();

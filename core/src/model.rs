@@ -195,8 +195,10 @@ pub fn attitude_rows<T: Real>(jr_mu: &Matrix3<T>) -> Rows<T> {
     rows_from_blocks(&[(PSI, Matrix3::identity()), (MU, *jr_mu), (TH, *jr_mu)])
 }
 
-/// Angular-rate matching `z_ω = ω̄_s − b̂_g − Exp(μ̂)ᵀ ω̄_m` (rad/s, slave body frame),
-/// both rates being means over the last filter period. `w_m_bs`: `Exp(μ̂)ᵀ ω̄_m`.
+/// Angular-rate matching `z_ω = ω_s − b̂_g − Exp(μ̂)ᵀ ω_m` (rad/s, slave body frame),
+/// both rates at the master message's time of validity (the slave's interpolated from
+/// its increments). For a flexure linear over each filter period the rate there is
+/// the period's θ̇. `w_m_bs`: `Exp(μ̂)ᵀ ω_m`.
 pub fn rate_rows<T: Real>(w_m_bs: &Vector3<T>, jr_mu: &Matrix3<T>) -> Rows<T> {
     let wj = skew(w_m_bs) * jr_mu;
     rows_from_blocks(&[(MU, wj), (BG, Matrix3::identity()), (TH, wj), (THD, *jr_mu)])

@@ -45,8 +45,8 @@ pub struct CalibConfig {
     pub velocity_noise_mps: f64,
     /// Attitude matching noise (rad).
     pub attitude_noise_rad: f64,
-    /// Angular-rate matching noise for the mean over one period (rad/s); when absent,
-    /// derived from the master's rate noise and the gyro ARW.
+    /// The master's angular-rate noise (rad/s, per axis); the slave gyro's part of the
+    /// rate-matching noise is derived from `gyro_arw_rad_rs`.
     pub rate_noise_radps: f64,
     /// Initial σ of the velocity error (m/s).
     pub initial_velocity_mps: f64,
@@ -130,10 +130,8 @@ impl CalibConfig {
         if sc.master.gives_rate {
             matching.push("angular_rate".into());
         }
-        // The rate matching compares mean rates over one period: the slave's gyro noise
-        // averaged over t, and the mean of two master rate samples.
-        let master_rate = sc.master.rate_noise_deg_h * sim::DEG_PER_H;
-        let rate_noise = (arw * arw / t + master_rate * master_rate / 2.0).sqrt();
+        // The master's rate noise; the engine adds the gyro's part from the ARW.
+        let rate_noise = sc.master.rate_noise_deg_h * sim::DEG_PER_H;
         Self {
             filter_period_s: t,
             matching,

@@ -3,5 +3,6 @@
 
 pub mod config;
 pub mod flexure_id;
+pub mod residuals;
 pub mod run;
 pub mod score;
