@@ -183,6 +183,14 @@ fn with_time(m: Message, t: f64) -> Message {
             x.t = t;
             Message::Status(x)
         }
+        Message::Config(mut x) => {
+            x.t = t;
+            Message::Config(x)
+        }
+        Message::End(mut x) => {
+            x.t = t;
+            Message::End(x)
+        }
     }
 }
 

@@ -19,4 +19,10 @@
 
 #[macro_use]
 mod fmt;
+pub mod app;
+pub mod imu;
+/// The replay IMU source (`src/imu/replay.rs`), an [`imu::ImuSource`]. Declared here rather
+/// than in `imu/mod.rs` so the SPI driver and the replay path are edited independently.
+#[path = "imu/replay.rs"]
+pub mod replay;
 pub mod selftest;

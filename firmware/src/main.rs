@@ -5,6 +5,10 @@
 //! panic/fault handlers, the defmt transport and the semihosting text/exit channel (see
 //! `board/mod.rs`).
 //!
+//! Modes: the start-up self-test (default), and `mode=replay` on the semihosting command line:
+//! the application (`flexcal_firmware::app`) on USART1, link frames in, estimates out, until
+//! the host's End message (`board/replay.rs`, `docs/firmware.md`).
+//!
 //! On the host this file compiles to a stub, so `cargo build/test --workspace` work on a desk.
 #![cfg_attr(all(target_arch = "arm", target_os = "none"), no_std, no_main)]
 #![deny(unsafe_code)]

@@ -26,6 +26,8 @@ enum Command {
     PaperFigures(cmd::paper_figures::Args),
     /// Identify an AR flexure model (order by AIC/BIC, Ljung-Box check).
     Identify(cmd::identify::Args),
+    /// Replay a recording through the board firmware in QEMU: summary.json, estimates.csv.
+    Replay(cmd::replay::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -36,6 +38,7 @@ fn main() -> std::process::ExitCode {
         Command::Montecarlo(a) => cmd::montecarlo::run(&a),
         Command::Identify(a) => cmd::identify::run(&a),
         Command::PaperFigures(a) => cmd::paper_figures::run(&a),
+        Command::Replay(a) => cmd::replay::run(&a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -85,8 +85,12 @@ pub fn decode_in_place(buf: &mut [u8]) -> Result<usize, CobsError> {
         if data.contains(&0) {
             return Err(CobsError::ZeroByte);
         }
-        // In bounds: start ≤ end ≤ n and write + (end − start) ≤ end.
-        buf.copy_within(start..end, write);
+        // In bounds: start ≤ end ≤ n and write + (end − start) ≤ end. Byte by byte with
+        // checked accesses: `copy_within` keeps a panic path in the board image.
+        for k in 0..end - start {
+            let b = *buf.get(start + k).ok_or(CobsError::Truncated)?;
+            *buf.get_mut(write + k).ok_or(CobsError::Truncated)? = b;
+        }
         write += end - start;
         read = end;
         if code != 0xFF && read < n {

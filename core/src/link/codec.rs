@@ -96,13 +96,15 @@ pub fn encode(seq: u16, message: &Message, out: &mut [u8]) -> Result<usize, Enco
 /// Assigns per-stream sequence numbers and encodes.
 #[derive(Clone, Debug, Default)]
 pub struct Encoder {
-    next_seq: [u16; 4],
+    next_seq: [u16; MessageKind::COUNT],
 }
 
 impl Encoder {
     /// Every stream starts at sequence number 0.
     pub const fn new() -> Self {
-        Self { next_seq: [0; 4] }
+        Self {
+            next_seq: [0; MessageKind::COUNT],
+        }
     }
 
     /// Encodes `message` with its stream's next sequence number (which advances,
@@ -404,6 +406,8 @@ mod tests {
         assert_eq!(frame_len(MessageKind::ImuSample), 42);
         assert_eq!(frame_len(MessageKind::Estimates), 116);
         assert_eq!(frame_len(MessageKind::Status), 138);
+        assert_eq!(frame_len(MessageKind::Config), 160);
+        assert_eq!(frame_len(MessageKind::End), 18);
         for k in MessageKind::ALL {
             assert!(k.payload_len() <= MAX_PAYLOAD_LEN);
         }

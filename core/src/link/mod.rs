@@ -36,7 +36,8 @@ pub use codec::{
     MAX_FRAME_LEN, MAX_PAYLOAD_LEN,
 };
 pub use message::{
-    EstimatesMsg, HealthFlags, ImuSampleMsg, MasterNavMsg, Message, MessageKind, StatusMsg,
+    ConfigMsg, EndMsg, EstimatesMsg, HealthFlags, ImuSampleMsg, MasterNavMsg, Message, MessageKind,
+    StatusMsg,
 };
 pub use receiver::{LinkCounters, LinkError, Received, Receiver};
 pub use sequence::{SequenceCounters, SequenceError, SequenceTracker, TimeRule};

@@ -42,7 +42,7 @@ pub enum LinkError {
 #[derive(Clone, Debug)]
 pub struct Receiver {
     decoder: Decoder,
-    trackers: [SequenceTracker; 4],
+    trackers: [SequenceTracker; MessageKind::COUNT],
 }
 
 impl Default for Receiver {
@@ -61,6 +61,8 @@ impl Receiver {
                 SequenceTracker::new(Self::rule(MessageKind::ALL[1])),
                 SequenceTracker::new(Self::rule(MessageKind::ALL[2])),
                 SequenceTracker::new(Self::rule(MessageKind::ALL[3])),
+                SequenceTracker::new(Self::rule(MessageKind::ALL[4])),
+                SequenceTracker::new(Self::rule(MessageKind::ALL[5])),
             ],
         }
     }
@@ -69,7 +71,10 @@ impl Receiver {
     pub const fn rule(kind: MessageKind) -> TimeRule {
         match kind {
             MessageKind::MasterNav | MessageKind::ImuSample => TimeRule::StrictlyIncreasing,
-            MessageKind::Estimates | MessageKind::Status => TimeRule::Unchecked,
+            MessageKind::Estimates
+            | MessageKind::Status
+            | MessageKind::Config
+            | MessageKind::End => TimeRule::Unchecked,
         }
     }
 
@@ -144,7 +149,7 @@ mod tests {
     #[test]
     fn state_is_small() {
         assert!(core::mem::size_of::<Decoder>() <= 320);
-        assert!(core::mem::size_of::<Receiver>() <= 560);
+        assert!(core::mem::size_of::<Receiver>() <= 720);
     }
 
     #[test]

@@ -1,5 +1,11 @@
 //! Runtime of the board image: entry point, panic and fault handlers.
 //!
+//! Modes, chosen by the semihosting command line (QEMU `-semihosting-config ...,arg=<word>`):
+//! - default: the start-up self-test, then exit (the CI smoke test);
+//! - `mode=replay`: the self-test, then the application on USART1 (`replay.rs`): link frames
+//!   in, estimates and status frames out, until the host's End message; then measurements
+//!   (`key value` lines) on stdout and exit 0.
+//!
 //! Output channels (all through Arm semihosting, i.e. QEMU or an attached debug probe):
 //! - defmt log frames go to the host's **stderr** (`logger`), binary, decoded with
 //!   `defmt-print -e <elf>`;
@@ -17,11 +23,17 @@
 
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 
+mod hw;
 mod logger;
+mod replay;
 mod semihost;
+mod serial;
 
 #[entry]
 fn main() -> ! {
+    // First, before anything deepens the stack: the high-water mark is read at the end.
+    hw::paint_stack();
+    let syst = cortex_m::Peripherals::take().map(|p| p.SYST);
     defmt::info!("flexcal-firmware {=str} start", env!("CARGO_PKG_VERSION"));
 
     #[cfg(feature = "fault-injection")]
@@ -37,6 +49,9 @@ fn main() -> ! {
                 report.low_pass
             );
             semihost::line("flexcal-firmware selftest ok");
+            if semihost::has_arg(b"mode=replay") {
+                replay::run(syst)
+            }
             semihost::exit(true)
         }
         Err(e) => {

@@ -5,6 +5,7 @@ pub mod common;
 pub mod identify;
 pub mod montecarlo;
 pub mod paper_figures;
+pub mod replay;
 pub mod simulate;
 
 /// The version written into every JSON output as `tool_version`.

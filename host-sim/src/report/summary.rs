@@ -50,7 +50,13 @@ pub fn summary_json(
         "gyro_bias": last.gyro_bias, "gyro_bias_sigma": last.gyro_bias_sigma,
         "accel_bias": last.accel_bias, "accel_bias_sigma": last.accel_bias_sigma,
         "misalignment": last.misalignment, "misalignment_sigma": last.misalignment_sigma,
-        "innovations": { "count": accepted, "nis_mean": res.nis_mean(), "gated": gated },
+        "innovations": {
+            "count": accepted,
+            "nis_mean": res.nis_mean(),
+            "nis_band": nis_band(accepted),
+            "gated": gated,
+        },
+        "residuals": crate::calib::residuals::channel_residuals(&res.innovations),
         "inputs": {
             "imu_samples": res.counters.imu_samples,
             "master_matched": res.counters.master_matched,
@@ -75,6 +81,18 @@ pub fn summary_json(
         obj.insert("errors".into(), json!(s));
     }
     v
+}
+
+/// 95% band of the mean NIS of `n` scalar innovations of a consistent filter.
+fn nis_band(n: usize) -> [f64; 2] {
+    if n == 0 {
+        return [0.0, 0.0];
+    }
+    let n = n as f64;
+    [
+        flexcal_core::stats::chi2_quantile(0.025, n) / n,
+        flexcal_core::stats::chi2_quantile(0.975, n) / n,
+    ]
 }
 
 /// Writes `estimates.csv`: one row per filter update.

@@ -1,0 +1,223 @@
+//! Replay mode (`mode=replay` on the semihosting command line): the application between a
+//! byte transport and the engine.
+//!
+//! Transports (the same link frames, the same [`App`]):
+//! - **USART1** (default): polled RX/TX on the STM32F405's USART1, which QEMU netduinoplus2
+//!   connects to its first `-serial`. This is the board's link. At start the board sends one
+//!   Status frame ("ready"): the host must not send before it, since bytes that reach a
+//!   disabled USART are lost.
+//! - **semihosting files** (`in=<path> out=<path>` on the command line): the host's files read
+//!   and written in 4 KiB blocks through semihosting. QEMU's USART model takes one byte per
+//!   main-loop turn (about 15 kB/s of wall time here), so long recordings replay through
+//!   this bulk path in the tests; it exercises the same decoder, application and engine.
+//!
+//! The run ends when the host's End message has been handled (final Estimates and Status
+//! sent): `key value` measurements on the semihosting stdout, exit status 0. Input that ends
+//! without End is a failure (exit 1).
+//!
+//! Timing: SysTick counts the core clock (24 bits, wrapping; each interval measured here is
+//! far shorter than a wrap). Under QEMU `-icount shift=0` every instruction advances virtual
+//! time by 1 ns, so the counts are deterministic (conversion in `docs/firmware.md`).
+
+use cortex_m::peripheral::{syst::SystClkSource, SYST};
+use flexcal_firmware::app::App;
+
+use super::hw;
+use super::semihost::{self, HostFile};
+use super::serial::Serial;
+
+const SYST_MASK: u32 = 0x00FF_FFFF;
+/// Block size of the semihosting file transport.
+const BLOCK: usize = 4096;
+
+/// A byte transport.
+trait Port {
+    /// The next received byte: `Ok(None)` if none yet, `Err(())` if the input has ended.
+    fn poll_byte(&mut self) -> Result<Option<u8>, ()>;
+    /// Sends (or queues) bytes.
+    fn send(&mut self, bytes: &[u8]);
+    /// Sends what is queued.
+    fn flush(&mut self);
+    /// Receive overruns (bytes lost on the line).
+    fn overruns(&self) -> u32;
+}
+
+impl Port for Serial {
+    fn poll_byte(&mut self) -> Result<Option<u8>, ()> {
+        Ok(self.try_read())
+    }
+    fn send(&mut self, bytes: &[u8]) {
+        self.write_all(bytes);
+    }
+    fn flush(&mut self) {}
+    fn overruns(&self) -> u32 {
+        Serial::overruns(self)
+    }
+}
+
+struct Files {
+    input: HostFile,
+    output: HostFile,
+    rx: [u8; BLOCK],
+    rx_len: usize,
+    rx_pos: usize,
+    tx: [u8; BLOCK],
+    tx_len: usize,
+}
+
+impl Port for Files {
+    fn poll_byte(&mut self) -> Result<Option<u8>, ()> {
+        if self.rx_pos >= self.rx_len {
+            self.rx_len = self.input.read(&mut self.rx);
+            self.rx_pos = 0;
+            if self.rx_len == 0 {
+                return Err(());
+            }
+        }
+        let b = self.rx.get(self.rx_pos).copied();
+        self.rx_pos += 1;
+        Ok(b)
+    }
+    fn send(&mut self, bytes: &[u8]) {
+        if self.tx_len + bytes.len() > BLOCK {
+            self.flush();
+        }
+        match self.tx.get_mut(self.tx_len..self.tx_len + bytes.len()) {
+            Some(dst) => {
+                dst.copy_from_slice(bytes);
+                self.tx_len += bytes.len();
+            }
+            None => self.output.write_all(bytes),
+        }
+    }
+    fn flush(&mut self) {
+        self.output
+            .write_all(self.tx.get(..self.tx_len).unwrap_or(&[]));
+        self.tx_len = 0;
+    }
+    fn overruns(&self) -> u32 {
+        0
+    }
+}
+
+/// Runs the replay until the host's End message; never returns.
+pub fn run(syst: Option<SYST>) -> ! {
+    let mut in_path = [0_u8; 256];
+    let mut out_path = [0_u8; 256];
+    let files = match (
+        semihost::arg_value(b"in=", &mut in_path),
+        semihost::arg_value(b"out=", &mut out_path),
+    ) {
+        (Some(i), Some(o)) => {
+            let input = in_path.get(..i).and_then(|p| HostFile::open(p, false));
+            let output = out_path.get(..o).and_then(|p| HostFile::open(p, true));
+            match (input, output) {
+                (Some(input), Some(output)) => Some(Files {
+                    input,
+                    output,
+                    rx: [0; BLOCK],
+                    rx_len: 0,
+                    rx_pos: 0,
+                    tx: [0; BLOCK],
+                    tx_len: 0,
+                }),
+                _ => {
+                    semihost::line("flexcal-firmware replay FAILED (cannot open in=/out= files)");
+                    semihost::exit(false)
+                }
+            }
+        }
+        _ => None,
+    };
+    match files {
+        Some(mut f) => {
+            defmt::info!("replay: link frames from semihosting files");
+            serve(&mut f, syst)
+        }
+        None => {
+            defmt::info!("replay: link frames on USART1");
+            serve(&mut Serial::init(), syst)
+        }
+    }
+}
+
+fn serve<P: Port>(port: &mut P, syst: Option<SYST>) -> ! {
+    let mut syst = syst;
+    if let Some(s) = syst.as_mut() {
+        s.set_clock_source(SystClkSource::Core);
+        s.set_reload(SYST_MASK);
+        s.clear_current();
+        s.enable_counter();
+    }
+    let mut app = App::new();
+    // "Ready": the host waits for this frame before it sends.
+    app.send_status_now(&mut |frame: &[u8]| port.send(frame));
+    port.flush();
+    let mut bytes: u64 = 0;
+    let mut busy_ticks: u64 = 0;
+    let mut max_ticks: u32 = 0;
+    loop {
+        let b = match port.poll_byte() {
+            Ok(Some(b)) => b,
+            Ok(None) => continue,
+            Err(()) => {
+                port.flush();
+                semihost::line("flexcal-firmware replay FAILED (input ended without End)");
+                semihost::exit(false)
+            }
+        };
+        bytes += 1;
+        let t0 = SYST::get_current();
+        app.push_byte(b, &mut |frame: &[u8]| port.send(frame));
+        let dt = t0.wrapping_sub(SYST::get_current()) & SYST_MASK;
+        busy_ticks += u64::from(dt);
+        max_ticks = max_ticks.max(dt);
+        if app.ended() {
+            break;
+        }
+    }
+    port.flush();
+    let c = app.counters();
+    let link = app.link_counters();
+    for (axis, fit) in app.flexure_fit().iter().enumerate() {
+        if let Some(f) = fit {
+            let [a1, a2] = f.coefficients;
+            defmt::info!(
+                "flexure axis {=usize}: AR({=usize}) a1 {=f32} a2 {=f32} sigma {=f32} rad ({=usize} residuals)",
+                axis,
+                f.order,
+                a1,
+                a2,
+                f.sigma_rad,
+                f.residuals
+            );
+        }
+    }
+    defmt::info!(
+        "replay end: {=u32} master updates, {=u32} estimates, {=u32} status, {=u32} frames, {=u32} refused",
+        c.master_updates,
+        c.estimates_sent,
+        c.status_sent,
+        link.decoder.frames,
+        link.decoder.errors()
+    );
+    semihost::line("flexcal-firmware replay ok");
+    semihost::line_kv("bytes", bytes);
+    semihost::line_kv("frames", u64::from(link.decoder.frames));
+    semihost::line_kv("frame-errors", u64::from(link.decoder.errors()));
+    semihost::line_kv("master-updates", u64::from(c.master_updates));
+    semihost::line_kv("imu-refused", u64::from(c.imu_refused));
+    semihost::line_kv("master-refused", u64::from(c.master_refused));
+    semihost::line_kv("config-refused", u64::from(c.config_refused));
+    semihost::line_kv("no-engine", u64::from(c.no_engine));
+    semihost::line_kv("uart-overruns", u64::from(port.overruns()));
+    for fit in app.flexure_fit() {
+        semihost::line_kv("flexure-ar-order", fit.map_or(99, |f| f.order as u64));
+    }
+    semihost::line_kv("systick-busy", busy_ticks);
+    semihost::line_kv("systick-max-per-byte", u64::from(max_ticks));
+    semihost::line_kv("stack-high-water-bytes", hw::stack_high_water() as u64);
+    semihost::line_kv("stack-capacity-bytes", hw::stack_capacity() as u64);
+    semihost::line_kv("app-state-bytes", core::mem::size_of::<App>() as u64);
+    semihost::exit(true)
+}

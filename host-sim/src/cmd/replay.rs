@@ -1,0 +1,564 @@
+//! `flexcal replay REC_DIR --qemu --out DIR`: the recording replayed through the board
+//! firmware running in QEMU (`netduinoplus2`, the reference board's STM32F405).
+//!
+//! The configuration is resolved as `calibrate` does. The host then streams link frames
+//! (`docs/link-protocol.md`) into the emulated USART1: Config, the recording's IMU samples
+//! and master messages interleaved in time order exactly as `calibrate` feeds its engine, and
+//! End. The firmware answers with Estimates (after every master update, or decimated) and
+//! Status frames on the same line, and exits at End. The outputs are those of `calibrate`
+//! (`summary.json` with `"precision": "f32"` and `"runner": "qemu"`, `estimates.csv`).
+//!
+//! Transport: QEMU connects its `-serial` to a TCP socket this process listens on. QEMU only
+//! reads a byte from the socket when the emulated USART's receive register is free, so the
+//! sender is held back by TCP flow control and no byte is lost (the Status counters prove it:
+//! every frame sent is counted as received).
+
+use crate::calib::config::CalibConfig;
+use crate::calib::run::{CalibResult, CovarianceCheck, EstimateRow, Precision};
+use crate::cmd::calibrate::{choose_flexure, resolve_config};
+use crate::cmd::common::ModelArgs;
+use crate::recording::{read_recording, Recording};
+use crate::report::summary;
+use flexcal_core::link::{
+    ConfigMsg, EndMsg, EstimatesMsg, ImuSampleMsg, MasterNavMsg, Message, Receiver, StatusMsg,
+    MAX_FRAME_LEN,
+};
+use nalgebra::SMatrix;
+use std::io::{Read, Write};
+use std::net::TcpListener;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// The firmware image `cargo fw-build` writes, relative to the workspace root.
+pub const DEFAULT_ELF: &str = "target/thumbv7em-none-eabihf/release/flexcal-firmware";
+
+/// Arguments of `flexcal replay`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Recording directory (format v1).
+    pub rec_dir: PathBuf,
+    /// Run the firmware in QEMU (`qemu-system-arm -machine netduinoplus2`); the only runner.
+    #[arg(long)]
+    pub qemu: bool,
+    /// Output directory.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Firmware image (default: the `cargo fw-build` output).
+    #[arg(long)]
+    pub elf: Option<PathBuf>,
+    /// Calibration configuration (TOML), resolved as `calibrate` does.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// The board sends Estimates after every n-th master update (the last one always).
+    #[arg(long, default_value_t = 1)]
+    pub estimates_every: u16,
+    /// The board sends Status after every n-th master update (and at the end).
+    #[arg(long, default_value_t = 1000)]
+    pub status_every: u16,
+    /// How the frames reach the firmware.
+    #[arg(long, value_enum, default_value = "uart")]
+    pub transport: Transport,
+    /// Run QEMU with `-icount shift=0` (deterministic virtual time, for the cost figures).
+    #[arg(long)]
+    pub icount: bool,
+    /// Wall-clock limit for the QEMU run (s).
+    #[arg(long, default_value_t = 600)]
+    pub timeout_s: u64,
+    /// Model switches.
+    #[command(flatten)]
+    pub model: ModelArgs,
+}
+
+/// The messages the host sends for a recording: Config, the IMU start sample, then every IMU
+/// sample followed by the master messages up to its time (the order of `calibrate`), then End.
+pub fn stream_messages(
+    rec: &Recording,
+    cfg: &CalibConfig,
+    estimates_every: u16,
+    status_every: u16,
+) -> Vec<Message> {
+    let engine_cfg = cfg.engine_config::<f32>(rec.meta.lever_arm_m);
+    let mut config = ConfigMsg::from_engine(&engine_cfg, estimates_every, status_every);
+    config.t = rec.imu_t0;
+    let mut out = Vec::with_capacity(rec.imu.len() + rec.master.len() + 3);
+    out.push(Message::Config(config));
+    out.push(Message::ImuSample(ImuSampleMsg {
+        t: rec.imu_t0,
+        dtheta_b: [0.0; 3],
+        dv_b: [0.0; 3],
+    }));
+    let f = |v: [f64; 3]| v.map(|x| x as f32);
+    let mut masters = rec.master.iter().peekable();
+    let mut last_t = rec.imu_t0;
+    for s in &rec.imu {
+        out.push(Message::ImuSample(ImuSampleMsg {
+            t: s.t,
+            dtheta_b: f(s.dtheta_rad),
+            dv_b: f(s.dv_mps),
+        }));
+        last_t = s.t;
+        while let Some(m) = masters.next_if(|m| m.t <= s.t) {
+            out.push(Message::MasterNav(MasterNavMsg {
+                t: m.t,
+                q_bm_n: m.q_bm_n,
+                v_n: f(m.v_n_mps),
+                lat_rad: m.lat_deg.to_radians(),
+                lon_rad: m.lon_deg.to_radians(),
+                height_m: m.height_m as f32,
+                w_ib_bm: m.omega_ib_bm_radps.map(f),
+            }));
+        }
+    }
+    out.push(Message::End(EndMsg { t: last_t }));
+    out
+}
+
+/// Each message as one frame on the wire (sequence numbers per stream from 0).
+pub fn encode_frames(msgs: &[Message]) -> Result<Vec<Vec<u8>>, String> {
+    let mut enc = flexcal_core::link::Encoder::new();
+    msgs.iter()
+        .map(|m| {
+            let mut buf = [0u8; MAX_FRAME_LEN];
+            let n = enc
+                .encode(m, &mut buf)
+                .map_err(|e| format!("cannot encode {:?} at t = {}: {e:?}", m.kind(), m.time()))?;
+            Ok(buf[..n].to_vec())
+        })
+        .collect()
+}
+
+/// How the link bytes reach the firmware in QEMU.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Transport {
+    /// The board's USART1, connected to QEMU's `-serial` (a TCP socket of this process).
+    Uart,
+    /// Semihosting files read and written in 4 KiB blocks (`in=`/`out=`): the same frames,
+    /// decoder and application, without QEMU's one-byte-per-main-loop-turn USART model.
+    Semihosting,
+}
+
+/// What a QEMU run gave back.
+#[derive(Debug)]
+pub struct QemuRun {
+    /// Exit code of QEMU (the firmware's semihosting exit: 0 success).
+    pub exit_code: Option<i32>,
+    /// The firmware's semihosting stdout (result line and `key value` measurements).
+    pub stdout: String,
+    /// The firmware's defmt frames (semihosting stderr, binary).
+    pub stderr: Vec<u8>,
+    /// The messages the firmware sent on the serial line, in order.
+    pub received: Vec<Message>,
+    /// Frames on the serial line the host could not decode.
+    pub rx_errors: u32,
+    /// Wall-clock time of the run.
+    pub wall: Duration,
+}
+
+impl QemuRun {
+    /// The value of a `key value` line of the firmware's stdout.
+    pub fn metric(&self, key: &str) -> Option<u64> {
+        self.stdout.lines().find_map(|l| {
+            let (k, v) = l.trim().split_once(' ')?;
+            (k == key).then(|| v.trim().parse().ok())?
+        })
+    }
+
+    /// Every `key value` line of the firmware's stdout.
+    pub fn metrics(&self) -> std::collections::BTreeMap<String, u64> {
+        self.stdout
+            .lines()
+            .filter_map(|l| {
+                let (k, v) = l.trim().split_once(' ')?;
+                Some((k.to_string(), v.trim().parse().ok()?))
+            })
+            .collect()
+    }
+
+    /// The Estimates messages received.
+    pub fn estimates(&self) -> Vec<EstimatesMsg> {
+        self.received
+            .iter()
+            .filter_map(|m| match m {
+                Message::Estimates(e) => Some(*e),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// The last Status message received.
+    pub fn last_status(&self) -> Option<StatusMsg> {
+        self.received.iter().rev().find_map(|m| match m {
+            Message::Status(s) => Some(*s),
+            _ => None,
+        })
+    }
+}
+
+/// Runs `elf` in QEMU netduinoplus2 in replay mode, sends `bytes` through `transport` and
+/// collects what it sends back until it exits (or `timeout` passes: then it is killed and this
+/// fails). `work_dir` holds the semihosting files.
+pub fn run_qemu(
+    elf: &Path,
+    bytes: &[u8],
+    transport: Transport,
+    icount: bool,
+    timeout: Duration,
+    work_dir: &Path,
+) -> Result<QemuRun, String> {
+    if !elf.is_file() {
+        return Err(format!(
+            "no firmware image at {} (build it with `cargo fw-build`)",
+            elf.display()
+        ));
+    }
+    let mut semihosting =
+        String::from("enable=on,target=native,arg=flexcal-firmware,arg=mode=replay");
+    let mut cmd = Command::new("qemu-system-arm");
+    cmd.args([
+        "-cpu",
+        "cortex-m4",
+        "-machine",
+        "netduinoplus2",
+        "-nographic",
+    ])
+    .args(["-monitor", "none"]);
+    if icount {
+        cmd.args(["-icount", "shift=0"]);
+    }
+    let listener = match transport {
+        Transport::Uart => {
+            let l = TcpListener::bind("127.0.0.1:0")
+                .map_err(|e| format!("cannot listen on localhost: {e}"))?;
+            let port = l.local_addr().map_err(|e| e.to_string())?.port();
+            cmd.args(["-serial", &format!("tcp:127.0.0.1:{port}")]);
+            l.set_nonblocking(true).map_err(|e| e.to_string())?;
+            Some(l)
+        }
+        Transport::Semihosting => None,
+    };
+    let files = match transport {
+        Transport::Uart => None,
+        Transport::Semihosting => {
+            std::fs::create_dir_all(work_dir)
+                .map_err(|e| format!("{}: {e}", work_dir.display()))?;
+            let dir = std::fs::canonicalize(work_dir).map_err(|e| e.to_string())?;
+            let (i, o) = (dir.join("link-in.bin"), dir.join("link-out.bin"));
+            for p in [&i, &o] {
+                let text = p.to_string_lossy();
+                if text.contains(',') || text.contains(' ') || text.len() > 250 {
+                    return Err(format!(
+                        "semihosting path unusable (comma, space or long): {text}"
+                    ));
+                }
+            }
+            std::fs::write(&i, bytes).map_err(|e| format!("{}: {e}", i.display()))?;
+            let _ = std::fs::remove_file(&o);
+            semihosting.push_str(&format!(",arg=in={},arg=out={}", i.display(), o.display()));
+            cmd.args(["-serial", "null"]);
+            Some(o)
+        }
+    };
+    cmd.args(["-semihosting-config", &semihosting]);
+    let start = Instant::now();
+    let mut child = cmd
+        .arg("-kernel")
+        .arg(elf)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("cannot start qemu-system-arm: {e}"))?;
+    let mut out_pipe = child.stdout.take().ok_or("no stdout pipe")?;
+    let mut err_pipe = child.stderr.take().ok_or("no stderr pipe")?;
+    let out_reader = std::thread::spawn(move || {
+        let mut b = Vec::new();
+        let _ = out_pipe.read_to_end(&mut b);
+        b
+    });
+    let err_reader = std::thread::spawn(move || {
+        let mut b = Vec::new();
+        let _ = err_pipe.read_to_end(&mut b);
+        b
+    });
+
+    let mut serial_threads = None;
+    if let Some(listener) = listener {
+        // QEMU connects at start-up; wait for it (or for it to die).
+        let stream = loop {
+            match listener.accept() {
+                Ok((s, _)) => break s,
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
+                    if let Ok(Some(st)) = child.try_wait() {
+                        return Err(format!(
+                            "qemu-system-arm exited ({st}) before connecting its serial port"
+                        ));
+                    }
+                    if start.elapsed() > Duration::from_secs(30) {
+                        let _ = child.kill();
+                        let _ = child.wait();
+                        return Err("qemu-system-arm did not connect its serial port".into());
+                    }
+                    std::thread::sleep(Duration::from_millis(5));
+                }
+                Err(e) => return Err(format!("accept: {e}")),
+            }
+        };
+        stream.set_nonblocking(false).map_err(|e| e.to_string())?;
+        let _ = stream.set_nodelay(true);
+        let mut tx = stream.try_clone().map_err(|e| e.to_string())?;
+        let mut rx = stream;
+        let payload = bytes.to_vec();
+        let (ready_tx, ready_rx) = std::sync::mpsc::channel::<()>();
+        let writer = std::thread::spawn(move || -> Result<(), String> {
+            // The board's first frame says its USART is enabled: bytes sent earlier are lost.
+            ready_rx
+                .recv_timeout(Duration::from_secs(30))
+                .map_err(|_| "the firmware never said it was ready".to_string())?;
+            // Blocks whenever QEMU's USART holds back (TCP flow control): nothing is dropped.
+            tx.write_all(&payload)
+                .map_err(|e| format!("serial write: {e}"))?;
+            tx.flush().map_err(|e| format!("serial write: {e}"))
+        });
+        let reader = std::thread::spawn(move || {
+            let mut receiver = Receiver::new();
+            let mut decoded = Decoded::default();
+            let mut ready = Some(ready_tx);
+            let mut buf = [0u8; 4096];
+            loop {
+                match rx.read(&mut buf) {
+                    Ok(0) | Err(_) => break,
+                    Ok(n) => {
+                        decoded.push(&mut receiver, &buf[..n]);
+                        if !decoded.msgs.is_empty() {
+                            if let Some(r) = ready.take() {
+                                let _ = r.send(());
+                            }
+                        }
+                    }
+                }
+            }
+            decoded
+        });
+        serial_threads = Some((writer, reader));
+    }
+
+    let status = loop {
+        if let Ok(Some(st)) = child.try_wait() {
+            break Some(st);
+        }
+        if start.elapsed() > timeout {
+            let _ = child.kill();
+            let _ = child.wait();
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    let wall = start.elapsed();
+    let stdout = String::from_utf8_lossy(&out_reader.join().unwrap_or_default()).into_owned();
+    let stderr = err_reader.join().unwrap_or_default();
+    let (decoded, write_result) = match (serial_threads, files) {
+        (Some((writer, reader)), _) => (
+            reader.join().unwrap_or_default(),
+            writer
+                .join()
+                .unwrap_or_else(|_| Err("serial writer panicked".into())),
+        ),
+        (None, Some(out_file)) => {
+            let bytes = std::fs::read(&out_file).unwrap_or_default();
+            let mut d = Decoded::default();
+            d.push(&mut Receiver::new(), &bytes);
+            (d, Ok(()))
+        }
+        (None, None) => (Decoded::default(), Ok(())),
+    };
+    let Some(status) = status else {
+        return Err(format!(
+            "the firmware did not end within {timeout:?} in QEMU (killed); stdout:\n{stdout}"
+        ));
+    };
+    if let Err(e) = write_result {
+        if !stdout.contains("flexcal-firmware replay ok") {
+            return Err(format!("{e}; QEMU {status}, stdout:\n{stdout}"));
+        }
+    }
+    Ok(QemuRun {
+        exit_code: status.code(),
+        stdout,
+        stderr,
+        received: decoded.msgs,
+        rx_errors: decoded.errors,
+        wall,
+    })
+}
+
+#[derive(Default)]
+struct Decoded {
+    msgs: Vec<Message>,
+    errors: u32,
+}
+
+impl Decoded {
+    fn push(&mut self, receiver: &mut Receiver, bytes: &[u8]) {
+        for b in bytes {
+            match receiver.push(*b) {
+                Some(Ok(r)) => self.msgs.push(r.frame.message),
+                Some(Err(_)) => self.errors += 1,
+                None => {}
+            }
+        }
+    }
+}
+
+/// The Estimates messages as `calibrate`'s rows (f64, SI).
+pub fn rows(estimates: &[EstimatesMsg]) -> Vec<EstimateRow> {
+    let d = |v: [f32; 3]| v.map(f64::from);
+    estimates
+        .iter()
+        .map(|e| EstimateRow {
+            t: e.t,
+            gyro_bias: d(e.gyro_bias),
+            gyro_bias_sigma: d(e.gyro_bias_sigma),
+            accel_bias: d(e.accel_bias),
+            accel_bias_sigma: d(e.accel_bias_sigma),
+            misalignment: d(e.misalignment),
+            misalignment_sigma: d(e.misalignment_sigma),
+            flexure: d(e.flexure),
+            flexure_sigma: d(e.flexure_sigma),
+        })
+        .collect()
+}
+
+/// A `CalibResult` from what the board sent: the rows, the counters of its last Status, the
+/// diagonal of the final covariance from the σ (the board sends no innovations and no
+/// off-diagonal covariance).
+pub fn result_from_board(run: &QemuRun) -> Result<CalibResult, String> {
+    let mut est = run.estimates();
+    // The final Estimates repeats the last update's (sent again at End): keep one.
+    if est.len() >= 2 && est[est.len() - 1] == est[est.len() - 2] {
+        est.pop();
+    }
+    let rows = rows(&est);
+    let status = run
+        .last_status()
+        .ok_or("the firmware sent no Status message")?;
+    let last = rows.last().copied().unwrap_or_default();
+    let sig: Vec<f64> = [
+        last.gyro_bias_sigma,
+        last.accel_bias_sigma,
+        last.misalignment_sigma,
+    ]
+    .concat();
+    let final_cov9 =
+        SMatrix::<f64, 9, 9>::from_fn(|i, j| if i == j { sig[i] * sig[i] } else { 0.0 });
+    Ok(CalibResult {
+        rows,
+        innovations: Vec::new(),
+        counters: status.engine,
+        health: status.health,
+        covariance: CovarianceCheck::default(),
+        final_cov9,
+        precision: Precision::F32,
+    })
+}
+
+/// Runs `flexcal replay`.
+pub fn run(a: &Args) -> Result<(), String> {
+    if !a.qemu {
+        return Err("replay needs a runner: only `--qemu` exists".into());
+    }
+    let rec = read_recording(&a.rec_dir).map_err(|e| e.to_string())?;
+    let (mut cfg, origin) = resolve_config(&a.rec_dir, a.config.as_deref())?;
+    a.model.apply(&mut cfg);
+    if cfg.matching_flags().angular_rate && !rec.master_has_rate() {
+        cfg.matching.retain(|m| m != "angular_rate");
+        eprintln!("flexcal: the master gives no angular rate: angular-rate matching is off");
+    }
+    eprintln!("flexcal: configuration: {origin}");
+    let flexure_source = choose_flexure(&rec, &mut cfg);
+    eprintln!("flexcal: flexure model: {flexure_source}");
+    let msgs = stream_messages(&rec, &cfg, a.estimates_every, a.status_every);
+    let frames = encode_frames(&msgs)?;
+    let bytes = frames.concat();
+    let elf = a.elf.clone().unwrap_or_else(|| PathBuf::from(DEFAULT_ELF));
+    let qemu = run_qemu(
+        &elf,
+        &bytes,
+        a.transport,
+        a.icount,
+        Duration::from_secs(a.timeout_s),
+        &a.out,
+    )?;
+    if qemu.exit_code != Some(0) || !qemu.stdout.contains("flexcal-firmware replay ok") {
+        return Err(format!(
+            "the firmware failed in QEMU (exit {:?}); stdout:\n{}",
+            qemu.exit_code, qemu.stdout
+        ));
+    }
+    let res = result_from_board(&qemu)?;
+    let status = qemu.last_status().ok_or("no Status")?;
+    let sent_frames = frames.len() as u32;
+    let lost = sent_frames.wrapping_sub(status.link.decoder.frames);
+    std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
+    let duration = match rec.imu.last() {
+        Some(l) => l.t - rec.imu_t0,
+        None => 0.0,
+    };
+    let mut doc = summary::summary_json(
+        &a.rec_dir.display().to_string(),
+        duration,
+        &cfg,
+        &flexure_source,
+        &res,
+        None,
+    );
+    if let Some(obj) = doc.as_object_mut() {
+        obj.insert("runner".into(), serde_json::json!("qemu"));
+        obj.insert(
+            "transport".into(),
+            serde_json::json!(match a.transport {
+                Transport::Uart => "uart",
+                Transport::Semihosting => "semihosting",
+            }),
+        );
+        obj.insert(
+            "link".into(),
+            serde_json::json!({
+                "frames_sent": sent_frames,
+                "frames_received_by_board": status.link.decoder.frames,
+                "frames_lost": lost,
+                "frame_errors_on_board": status.link.decoder.errors(),
+                "sequence_rejected_on_board": status.link.sequence.rejected(),
+                "estimates_frames_from_board": qemu.estimates().len(),
+                "frame_errors_from_board": qemu.rx_errors,
+            }),
+        );
+        obj.insert(
+            "qemu".into(),
+            serde_json::json!({
+                "wall_s": qemu.wall.as_secs_f64(),
+                "icount": a.icount,
+                "firmware": qemu.metrics(),
+            }),
+        );
+    }
+    let text = serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())?;
+    let path = a.out.join("summary.json");
+    std::fs::write(&path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
+    summary::write_estimates_csv(&a.out.join("estimates.csv"), &res.rows)
+        .map_err(|e| e.to_string())?;
+    println!(
+        "replayed {} ({} s) in QEMU: {} frames sent, {} received by the board, {} estimates back ({:.1} s) -> {}",
+        a.rec_dir.display(),
+        duration,
+        sent_frames,
+        status.link.decoder.frames,
+        res.rows.len(),
+        qemu.wall.as_secs_f64(),
+        a.out.display()
+    );
+    if lost != 0 {
+        return Err(format!("{lost} frames were lost on the way to the board"));
+    }
+    Ok(())
+}

@@ -1,0 +1,439 @@
+//! Recordings replayed through the board firmware: on the host (the firmware library's
+//! `App` fed the encoded byte stream) and in QEMU `netduinoplus2` (the release image, link
+//! frames in and estimates out), compared with `flexcal calibrate --precision f32`.
+//!
+//! The image is built once into `target/qemu-replay` (its own target directory: a nested cargo
+//! must not wait on the lock of the cargo running these tests).
+//!
+//! Transports: the long recordings go through semihosting files (`Transport::Semihosting`),
+//! because QEMU's USART model takes one byte per main-loop turn (about 18 kB/s of wall time,
+//! ~1 s per recorded second at 200 Hz IMU + 100 Hz master); the USART itself is tested on a
+//! short stream, clean (bit-identical to the semihosting run) and with link faults.
+//!
+//! `qemu-system-arm` missing is a failure, not a silent pass; set `FLEXCAL_SKIP_QEMU=1` to skip
+//! the QEMU tests on a machine without it (the host test still runs).
+
+use flexcal_core::engine::Engine;
+use flexcal_core::link::{EstimatesMsg, HealthFlags, Message, Receiver, StatusMsg};
+use flexcal_firmware::app::App;
+use flexcal_sim::calib::config::CalibConfig;
+use flexcal_sim::calib::run::{run, CalibResult, Precision};
+use flexcal_sim::cmd::replay::{encode_frames, run_qemu, stream_messages, QemuRun, Transport};
+use flexcal_sim::recording::{read_recording, write_recording, Recording};
+use flexcal_sim::sim::{simulate, Scenario};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::OnceLock;
+use std::time::Duration;
+
+const TARGET: &str = "thumbv7em-none-eabihf";
+const QEMU_TIMEOUT: Duration = Duration::from_secs(120);
+
+fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("tests/ has a parent")
+        .to_path_buf()
+}
+
+/// `true` if QEMU is there; panics if it is missing and skipping was not asked for.
+fn qemu_or_skip() -> bool {
+    let found = Command::new("qemu-system-arm")
+        .arg("--version")
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    if found {
+        return true;
+    }
+    if std::env::var("FLEXCAL_SKIP_QEMU").as_deref() == Ok("1") {
+        eprintln!("qemu-system-arm not found; skipped because FLEXCAL_SKIP_QEMU=1");
+        return false;
+    }
+    panic!(
+        "qemu-system-arm not found on PATH: the firmware replay tests cannot run. Install it \
+         (Debian/Ubuntu: `apt-get install -y qemu-system-arm`) or set FLEXCAL_SKIP_QEMU=1."
+    );
+}
+
+/// The release image, built once per test process.
+fn image() -> &'static Path {
+    static ELF: OnceLock<PathBuf> = OnceLock::new();
+    ELF.get_or_init(|| {
+        let root = workspace_root();
+        let target_dir = root.join("target").join("qemu-replay");
+        let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+        let mut cmd = Command::new(cargo);
+        cmd.current_dir(&root)
+            .args([
+                "build",
+                "-p",
+                "flexcal-firmware",
+                "--release",
+                "--target",
+                TARGET,
+            ])
+            .arg("--target-dir")
+            .arg(&target_dir)
+            .stdin(Stdio::null());
+        // Host flags and the outer cargo's target dir/jobserver must not leak in.
+        for var in [
+            "RUSTFLAGS",
+            "CARGO_ENCODED_RUSTFLAGS",
+            "CARGO_BUILD_RUSTFLAGS",
+            "CARGO_BUILD_TARGET",
+            "CARGO_TARGET_DIR",
+            "CARGO_BUILD_TARGET_DIR",
+            "CARGO_MAKEFLAGS",
+            "MAKEFLAGS",
+            "MFLAGS",
+        ] {
+            cmd.env_remove(var);
+        }
+        let out = cmd.output().expect("cannot start cargo");
+        assert!(
+            out.status.success(),
+            "firmware build failed ({}):\n{}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let elf = target_dir
+            .join(TARGET)
+            .join("release")
+            .join("flexcal-firmware");
+        assert!(elf.is_file(), "no firmware image at {}", elf.display());
+        elf
+    })
+}
+
+/// A simulated `moored` recording of `duration_s`, written and read back as `calibrate`
+/// would see it, with the configuration its scenario declares.
+fn moored(duration_s: f64, dir: &Path) -> (Recording, CalibConfig) {
+    let mut sc = Scenario::load("moored").expect("moored scenario");
+    sc.duration_s = duration_s;
+    let out = simulate(&sc, 7);
+    write_recording(dir, &out.recording).expect("write recording");
+    let rec = read_recording(dir).expect("read recording");
+    let cfg = CalibConfig::declared_for(&sc, 1.0 / sc.master.rate_hz);
+    (rec, cfg)
+}
+
+fn replay(rec: &Recording, cfg: &CalibConfig, bytes: &[u8], t: Transport, dir: &Path) -> QemuRun {
+    let _ = (rec, cfg);
+    let run = run_qemu(image(), bytes, t, false, QEMU_TIMEOUT, dir).expect("QEMU run");
+    assert_eq!(
+        run.exit_code,
+        Some(0),
+        "firmware failed in QEMU; stdout:\n{}",
+        run.stdout
+    );
+    assert!(
+        run.stdout.contains("flexcal-firmware replay ok"),
+        "{}",
+        run.stdout
+    );
+    eprintln!(
+        "QEMU {t:?}: {} bytes in {:.2} s wall",
+        bytes.len(),
+        run.wall.as_secs_f64()
+    );
+    run
+}
+
+/// The board's estimates after the reference's last master update (the board also flushes the
+/// held IMU samples at End, which may match one more master message).
+fn at_reference_end(run: &QemuRun, reference: &CalibResult) -> EstimatesMsg {
+    let est = run.estimates();
+    assert!(est.len() >= reference.rows.len(), "{} estimates", est.len());
+    est[reference.rows.len() - 1]
+}
+
+fn last_estimates(run: &QemuRun) -> EstimatesMsg {
+    *run.estimates().last().expect("no Estimates from the board")
+}
+
+fn last_status(run: &QemuRun) -> StatusMsg {
+    run.last_status().expect("no Status from the board")
+}
+
+/// Final board estimates within `tol` σ of the f32 reference (`flexcal calibrate`'s library).
+fn assert_close(board: &EstimatesMsg, reference: &CalibResult, tol: f64) {
+    let r = reference.last();
+    let groups = [
+        ("gyro bias", board.gyro_bias, r.gyro_bias, r.gyro_bias_sigma),
+        (
+            "accel bias",
+            board.accel_bias,
+            r.accel_bias,
+            r.accel_bias_sigma,
+        ),
+        (
+            "misalignment",
+            board.misalignment,
+            r.misalignment,
+            r.misalignment_sigma,
+        ),
+    ];
+    for (name, b, want, sigma) in groups {
+        for k in 0..3 {
+            let z = (f64::from(b[k]) - want[k]) / sigma[k];
+            assert!(
+                z.abs() <= tol,
+                "{name}[{k}]: board {} vs calibrate {} (σ {}): {z:.4} σ",
+                b[k],
+                want[k],
+                sigma[k]
+            );
+        }
+    }
+}
+
+#[test]
+fn host_app_equals_the_engine_driven_directly() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (rec, cfg) = moored(20.0, dir.path());
+    let msgs = stream_messages(&rec, &cfg, 1, 0);
+    let bytes = encode_frames(&msgs).expect("encode").concat();
+
+    let mut app = Box::new(App::new());
+    let mut rx = Receiver::new();
+    let mut sent = Vec::new();
+    app.push_bytes(&bytes, &mut |frame: &[u8]| {
+        for b in frame {
+            if let Some(Ok(r)) = rx.push(*b) {
+                sent.push(r.frame.message);
+            }
+        }
+    });
+    assert!(app.ended());
+
+    // The same messages straight into Engine<f32>.
+    let mut engine: Option<Engine<f32>> = None;
+    let mut per_update = Vec::new();
+    for m in &msgs {
+        let reports = match m {
+            Message::Config(c) => {
+                engine = Some(Engine::new(c.to_engine()).expect("config"));
+                continue;
+            }
+            Message::ImuSample(s) => engine.as_mut().unwrap().push_imu(s.to_engine()),
+            Message::MasterNav(s) => engine.as_mut().unwrap().push_master(s.to_engine()),
+            Message::End(_) => Ok(engine.as_mut().unwrap().flush()),
+            _ => continue,
+        };
+        let e = engine.as_ref().unwrap();
+        for _ in reports.map(|r| r.len()).into_iter().flat_map(|n| 0..n) {
+            let flags = HealthFlags::from_engine(&e.health(), &e.counters());
+            per_update.push(EstimatesMsg::from_engine(&e.estimates(), flags));
+        }
+    }
+    let board: Vec<EstimatesMsg> = sent
+        .iter()
+        .filter_map(|m| match m {
+            Message::Estimates(e) => Some(*e),
+            _ => None,
+        })
+        .collect();
+    assert!(per_update.len() > 1000);
+    assert_eq!(
+        board.len(),
+        per_update.len() + 1,
+        "every update, and the final one"
+    );
+    assert_eq!(&board[..per_update.len()], &per_update[..], "bit-identical");
+
+    // And the library reference of `flexcal calibrate --precision f32` (which does not flush
+    // at the end: compare at its last update).
+    let reference = run(&rec, &cfg, Precision::F32).expect("calibrate f32");
+    assert_close(&board[reference.rows.len() - 1], &reference, 1e-9);
+}
+
+#[test]
+fn moored_120s_in_qemu_matches_calibrate_f32() {
+    if !qemu_or_skip() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (rec, cfg) = moored(120.0, &dir.path().join("rec"));
+    let msgs = stream_messages(&rec, &cfg, 1, 1000);
+    let frames = encode_frames(&msgs).expect("encode");
+    let bytes = frames.concat();
+    let run_q = replay(
+        &rec,
+        &cfg,
+        &bytes,
+        Transport::Semihosting,
+        &dir.path().join("q"),
+    );
+    let st = last_status(&run_q);
+    assert_eq!(
+        st.link.decoder.frames as usize,
+        frames.len(),
+        "no frame lost"
+    );
+    assert_eq!(st.link.decoder.errors(), 0);
+    let reference = run(&rec, &cfg, Precision::F32).expect("calibrate f32");
+    assert!(st.engine.master_matched as usize >= reference.rows.len());
+    assert_close(&at_reference_end(&run_q, &reference), &reference, 0.1);
+}
+
+#[test]
+fn psins_vehicle_in_qemu_matches_calibrate_f32() {
+    if !qemu_or_skip() {
+        return;
+    }
+    let root = workspace_root();
+    let rec_dir = root.join("../shared/data/psins-vehicle-fog-mems");
+    let rec = read_recording(&rec_dir).expect("psins recording");
+    let mut cfg = CalibConfig::load(&root.join("configs/mems-vehicle.toml")).expect("config");
+    // As `calibrate`: the flexure model as configured or identified.
+    let _ = flexcal_sim::cmd::calibrate::choose_flexure(&rec, &mut cfg);
+    let msgs = stream_messages(&rec, &cfg, 1, 100);
+    let frames = encode_frames(&msgs).expect("encode");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let run_q = replay(
+        &rec,
+        &cfg,
+        &frames.concat(),
+        Transport::Semihosting,
+        dir.path(),
+    );
+    let st = last_status(&run_q);
+    assert_eq!(
+        st.link.decoder.frames as usize,
+        frames.len(),
+        "no frame lost"
+    );
+    let reference = run(&rec, &cfg, Precision::F32).expect("calibrate f32");
+    assert!(st.engine.master_matched as usize >= reference.rows.len());
+    assert_close(&at_reference_end(&run_q, &reference), &reference, 0.1);
+}
+
+/// Deterministic pseudo-random bytes (no zero: a zero would just be one more delimiter).
+fn noise(state: &mut u64, n: usize) -> Vec<u8> {
+    (0..n)
+        .map(|_| {
+            *state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            ((*state >> 33) as u8).max(1)
+        })
+        .collect()
+}
+
+#[test]
+fn uart_link_with_faults_keeps_running_and_counts_them() {
+    if !qemu_or_skip() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (rec, cfg) = moored(4.0, &dir.path().join("rec"));
+    let msgs = stream_messages(&rec, &cfg, 0, 0);
+    let frames = encode_frames(&msgs).expect("encode");
+    let n = frames.len();
+
+    // Clean, over the USART: no byte lost, and bit-identical to the semihosting transport.
+    let clean = replay(
+        &rec,
+        &cfg,
+        &frames.concat(),
+        Transport::Uart,
+        &dir.path().join("u"),
+    );
+    let clean_st = last_status(&clean);
+    assert_eq!(clean_st.link.decoder.frames as usize, n, "UART lost frames");
+    assert_eq!(clean_st.link.decoder.errors(), 0);
+    let files = replay(
+        &rec,
+        &cfg,
+        &frames.concat(),
+        Transport::Semihosting,
+        &dir.path().join("s"),
+    );
+    assert_eq!(last_estimates(&clean), last_estimates(&files));
+
+    // Faults that destroy no valid message: garbage between frames, duplicated frames.
+    let mut rng = 0x5EED_u64;
+    let mut bytes = Vec::new();
+    let (mut garbage_runs, mut dups) = (0u32, 0u32);
+    for (i, f) in frames.iter().enumerate() {
+        bytes.extend_from_slice(f);
+        if i > 0 && i + 1 < n && i % 9 == 4 {
+            let len = 1 + (i % 40);
+            bytes.extend(noise(&mut rng, len));
+            garbage_runs += 1;
+        }
+        if i > 0 && i + 1 < n && i % 13 == 6 {
+            bytes.extend_from_slice(f);
+            dups += 1;
+        }
+    }
+    let benign = replay(&rec, &cfg, &bytes, Transport::Uart, &dir.path().join("b"));
+    let st = last_status(&benign);
+    assert_eq!(
+        last_estimates(&benign),
+        last_estimates(&clean),
+        "estimates changed"
+    );
+    assert_eq!(st.link.sequence.duplicates, dups, "duplicates counted");
+    assert_eq!(st.link.decoder.frames as usize, n + dups as usize);
+    // Each run of garbage is closed off by the next frame's delimiter: one rejected frame.
+    assert_eq!(
+        st.link.decoder.errors(),
+        garbage_runs,
+        "{:?}",
+        st.link.decoder
+    );
+
+    // Destructive faults: truncated, bit-flipped, dropped, reordered frames.
+    let mut bytes = Vec::new();
+    let (mut truncated, mut flipped, mut dropped, mut reordered) = (0u32, 0u32, 0u32, 0u32);
+    let mut i = 0;
+    while i < n {
+        let f = &frames[i];
+        let inner = i > 1 && i + 3 < n;
+        match i % 40 {
+            10 if inner => {
+                bytes.extend_from_slice(&f[..f.len() / 2]);
+                truncated += 1;
+            }
+            20 if inner => {
+                let mut g = f.clone();
+                let k = 3 + (i % (g.len() - 6));
+                g[k] ^= 0x04;
+                if g[k] == 0 {
+                    g[k] = 0x55;
+                }
+                bytes.extend_from_slice(&g);
+                flipped += 1;
+            }
+            30 if inner => dropped += 1,
+            35 if inner => {
+                // The next frame of the same stream (two on: IMU and master alternate) first.
+                bytes.extend_from_slice(&frames[i + 2]);
+                bytes.extend_from_slice(&frames[i + 1]);
+                bytes.extend_from_slice(f);
+                reordered += 1;
+                i += 2;
+            }
+            _ => bytes.extend_from_slice(f),
+        }
+        i += 1;
+    }
+    let hurt = replay(&rec, &cfg, &bytes, Transport::Uart, &dir.path().join("h"));
+    let st = last_status(&hurt);
+    let d = st.link.decoder;
+    let s = st.link.sequence;
+    eprintln!("destructive faults: {d:?}\n{s:?}");
+    assert!(
+        d.errors() >= truncated + flipped,
+        "damaged frames rejected: {d:?}"
+    );
+    assert!(s.gaps >= dropped, "gaps counted: {s:?}");
+    assert!(s.out_of_order >= reordered, "reordering counted: {s:?}");
+    let e = last_estimates(&hurt);
+    assert!(e.gyro_bias.iter().all(|v| v.is_finite()));
+    assert!(st.engine.master_matched > 0);
+}
