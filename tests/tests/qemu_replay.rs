@@ -22,90 +22,19 @@ use flexcal_sim::cmd::replay::{encode_frames, run_qemu, stream_messages, QemuRun
 use flexcal_sim::recording::{read_recording, write_recording, Recording};
 use flexcal_sim::sim::{simulate, Scenario};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
 use std::sync::OnceLock;
 use std::time::Duration;
 
-const TARGET: &str = "thumbv7em-none-eabihf";
+mod support;
+
+use support::{build_image, qemu_available_or_skip as qemu_or_skip, workspace_root};
+
 const QEMU_TIMEOUT: Duration = Duration::from_secs(120);
-
-fn workspace_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("tests/ has a parent")
-        .to_path_buf()
-}
-
-/// `true` if QEMU is there; panics if it is missing and skipping was not asked for.
-fn qemu_or_skip() -> bool {
-    let found = Command::new("qemu-system-arm")
-        .arg("--version")
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success());
-    if found {
-        return true;
-    }
-    if std::env::var("FLEXCAL_SKIP_QEMU").as_deref() == Ok("1") {
-        eprintln!("qemu-system-arm not found; skipped because FLEXCAL_SKIP_QEMU=1");
-        return false;
-    }
-    panic!(
-        "qemu-system-arm not found on PATH: the firmware replay tests cannot run. Install it \
-         (Debian/Ubuntu: `apt-get install -y qemu-system-arm`) or set FLEXCAL_SKIP_QEMU=1."
-    );
-}
 
 /// The release image, built once per test process.
 fn image() -> &'static Path {
     static ELF: OnceLock<PathBuf> = OnceLock::new();
-    ELF.get_or_init(|| {
-        let root = workspace_root();
-        let target_dir = root.join("target").join("qemu-replay");
-        let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-        let mut cmd = Command::new(cargo);
-        cmd.current_dir(&root)
-            .args([
-                "build",
-                "-p",
-                "flexcal-firmware",
-                "--release",
-                "--target",
-                TARGET,
-            ])
-            .arg("--target-dir")
-            .arg(&target_dir)
-            .stdin(Stdio::null());
-        // Host flags and the outer cargo's target dir/jobserver must not leak in.
-        for var in [
-            "RUSTFLAGS",
-            "CARGO_ENCODED_RUSTFLAGS",
-            "CARGO_BUILD_RUSTFLAGS",
-            "CARGO_BUILD_TARGET",
-            "CARGO_TARGET_DIR",
-            "CARGO_BUILD_TARGET_DIR",
-            "CARGO_MAKEFLAGS",
-            "MAKEFLAGS",
-            "MFLAGS",
-        ] {
-            cmd.env_remove(var);
-        }
-        let out = cmd.output().expect("cannot start cargo");
-        assert!(
-            out.status.success(),
-            "firmware build failed ({}):\n{}",
-            out.status,
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let elf = target_dir
-            .join(TARGET)
-            .join("release")
-            .join("flexcal-firmware");
-        assert!(elf.is_file(), "no firmware image at {}", elf.display());
-        elf
-    })
+    ELF.get_or_init(|| build_image("qemu-replay", &[]))
 }
 
 /// A simulated `moored` recording of `duration_s`, written and read back as `calibrate`
