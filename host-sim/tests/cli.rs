@@ -45,18 +45,21 @@ fn check_summary(dir: &Path) -> serde_json::Value {
     v
 }
 
-#[test]
-fn simulate_then_calibrate_writes_the_contract_outputs() {
-    let tmp = tempfile::tempdir().unwrap();
-    let rec = tmp.path().join("rec");
-    let out = tmp.path().join("cal");
+/// Simulates `moored` for `duration_s` into `dir/rec`, calibrates it into `dir/cal`
+/// with the extra `calibrate` arguments, and returns the checked `summary.json`.
+fn simulate_and_calibrate(
+    dir: &Path,
+    duration_s: &str,
+    calibrate_args: &[&str],
+) -> serde_json::Value {
+    let (rec, out) = (dir.join("rec"), dir.join("cal"));
     let st = flexcal()
         .args([
             "simulate",
             "--scenario",
             "moored",
             "--duration",
-            "30",
+            duration_s,
             "--out",
         ])
         .arg(&rec)
@@ -66,12 +69,19 @@ fn simulate_then_calibrate_writes_the_contract_outputs() {
     let st = flexcal()
         .arg("calibrate")
         .arg(&rec)
+        .args(calibrate_args)
         .arg("--out")
         .arg(&out)
         .status()
         .unwrap();
     assert!(st.success());
-    let v = check_summary(&out);
+    check_summary(&out)
+}
+
+#[test]
+fn simulate_then_calibrate_writes_the_contract_outputs() {
+    let tmp = tempfile::tempdir().unwrap();
+    let v = simulate_and_calibrate(tmp.path(), "30", &[]);
     assert!(
         v["errors"]["nees_mean"].as_f64().unwrap().is_finite(),
         "truth was given: errors expected"
@@ -82,31 +92,7 @@ fn simulate_then_calibrate_writes_the_contract_outputs() {
 #[test]
 fn calibrate_identifies_the_flexure_when_asked_and_says_so() {
     let tmp = tempfile::tempdir().unwrap();
-    let rec = tmp.path().join("rec");
-    let out = tmp.path().join("cal");
-    let st = flexcal()
-        .args([
-            "simulate",
-            "--scenario",
-            "moored",
-            "--duration",
-            "60",
-            "--out",
-        ])
-        .arg(&rec)
-        .status()
-        .unwrap();
-    assert!(st.success());
-    let st = flexcal()
-        .arg("calibrate")
-        .arg(&rec)
-        .arg("--identify-flexure")
-        .arg("--out")
-        .arg(&out)
-        .status()
-        .unwrap();
-    assert!(st.success());
-    let v = check_summary(&out);
+    let v = simulate_and_calibrate(tmp.path(), "60", &["--identify-flexure"]);
     let source = v["model"]["flexure_source"].as_str().unwrap();
     assert!(
         source.starts_with("identified from the rate-integrated sequence"),
