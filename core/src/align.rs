@@ -99,21 +99,27 @@ impl<T: Real, const M: usize> AlignBuffer<T, M> {
         if t < first.t {
             return Err(AlignError::TooOld);
         }
-        let mut prev = first;
-        for s in self.ring.iter() {
-            if s.t >= t {
-                let span = s.t - prev.t;
-                let w = if span > 0.0 { (t - prev.t) / span } else { 1.0 };
-                let wt = T::of(w);
-                let one = T::one();
-                return Ok(SlaveAt {
-                    q_b_n: nlerp(&prev.q_b_n, &s.q_b_n, wt),
-                    v_n: prev.v_n * (one - wt) + s.v_n * wt,
-                });
+        // Times increase along the ring and `t` is usually close to the newest, so the
+        // first snapshot at or after `t` (`s`) and the one before it (`prev`; `s` itself
+        // when it is the oldest) are found from the back.
+        let (mut s, mut prev) = (last, None);
+        for x in self.ring.iter().rev() {
+            if x.t >= t {
+                s = x;
+            } else {
+                prev = Some(x);
+                break;
             }
-            prev = s;
         }
-        Err(AlignError::NotYet)
+        let prev = prev.unwrap_or(s);
+        let span = s.t - prev.t;
+        let w = if span > 0.0 { (t - prev.t) / span } else { 1.0 };
+        let wt = T::of(w);
+        let one = T::one();
+        Ok(SlaveAt {
+            q_b_n: nlerp(&prev.q_b_n, &s.q_b_n, wt),
+            v_n: prev.v_n * (one - wt) + s.v_n * wt,
+        })
     }
 
     /// Raw gyro rate at time `t` (rad/s, slave body): the straight line through the
@@ -125,24 +131,31 @@ impl<T: Real, const M: usize> AlignBuffer<T, M> {
         if self.ring.back().is_none_or(|s| t > s.t) {
             return Err(AlignError::NotYet);
         }
-        let mut prev: Option<&Snapshot<T>> = None;
-        for s in self.ring.iter().filter(|s| s.dt > 0.0) {
-            if s.t >= t {
-                let Some(p) = prev else {
-                    return Err(AlignError::TooOld);
-                };
-                let (m0, m1) = (p.t - p.dt / 2.0, s.t - s.dt / 2.0);
-                let lambda = if m1 > m0 { (t - m0) / (m1 - m0) } else { 1.0 };
-                let r0 = p.dtheta_raw_b / T::of(p.dt);
-                let r1 = s.dtheta_raw_b / T::of(s.dt);
-                return Ok(RateAt {
-                    raw_b: r0 * T::of(1.0 - lambda) + r1 * T::of(lambda),
-                    noise_gain: (1.0 - lambda) * (1.0 - lambda) / p.dt + lambda * lambda / s.dt,
-                });
+        // The first interval (of positive length) ending at or after `t`, and the one
+        // before it, searched from the back (times increase along the ring).
+        let (mut next, mut prev): (Option<&Snapshot<T>>, Option<&Snapshot<T>>) = (None, None);
+        for x in self.ring.iter().rev().filter(|s| s.dt > 0.0) {
+            if x.t >= t {
+                next = Some(x);
+            } else {
+                prev = Some(x);
+                break;
             }
-            prev = Some(s);
         }
-        Err(AlignError::NotYet)
+        let Some(s) = next else {
+            return Err(AlignError::NotYet);
+        };
+        let Some(p) = prev else {
+            return Err(AlignError::TooOld);
+        };
+        let (m0, m1) = (p.t - p.dt / 2.0, s.t - s.dt / 2.0);
+        let lambda = if m1 > m0 { (t - m0) / (m1 - m0) } else { 1.0 };
+        let r0 = p.dtheta_raw_b / T::of(p.dt);
+        let r1 = s.dtheta_raw_b / T::of(s.dt);
+        Ok(RateAt {
+            raw_b: r0 * T::of(1.0 - lambda) + r1 * T::of(lambda),
+            noise_gain: (1.0 - lambda) * (1.0 - lambda) / p.dt + lambda * lambda / s.dt,
+        })
     }
 
     /// Applies a closed-loop correction to every stored snapshot: velocity minus
@@ -152,6 +165,20 @@ impl<T: Real, const M: usize> AlignBuffer<T, M> {
         for s in self.ring.iter_mut() {
             s.v_n -= dv_n;
             s.q_b_n *= r;
+        }
+    }
+
+    /// [`Self::correct`] for the snapshots a later time `t' > t` can still be
+    /// interpolated from: those at or after `t` and the last one before it. Older
+    /// snapshots keep their values (only their raw increments are read again).
+    pub fn correct_since(&mut self, t: f64, dv_n: &Vector3<T>, psi_b: &Vector3<T>) {
+        let r = quat_exp(&(-psi_b));
+        for s in self.ring.iter_mut().rev() {
+            s.v_n -= dv_n;
+            s.q_b_n *= r;
+            if s.t < t {
+                break;
+            }
         }
     }
 }
@@ -182,6 +209,33 @@ mod tests {
         assert!((crate::rotation::quat_log(&s.q_b_n).z - 0.3 * 0.0725).abs() < 1e-9);
         assert_eq!(b.at(0.01).unwrap_err(), AlignError::TooOld);
         assert_eq!(b.at(0.2).unwrap_err(), AlignError::NotYet);
+    }
+
+    #[test]
+    fn correct_since_corrects_what_later_times_interpolate_from() {
+        let mut all = AlignBuffer::<f64, 8>::new();
+        for k in 0..8 {
+            all.push(snap(k as f64 * 0.005, 2.0, 0.3));
+        }
+        let mut since = all.clone();
+        let (dv, psi) = (
+            Vector3::new(0.1, -0.2, 0.3),
+            Vector3::new(1e-3, -2e-3, 3e-3),
+        );
+        all.correct(&dv, &psi);
+        since.correct_since(0.0175, &dv, &psi);
+        // From the last snapshot before t = 0.0175 (t = 0.015) on: corrected alike.
+        for (a, b) in all.iter().zip(since.iter()) {
+            if a.t >= 0.015 {
+                assert_eq!((a.v_n, a.q_b_n), (b.v_n, b.q_b_n));
+            } else {
+                assert_ne!(a.v_n, b.v_n);
+            }
+        }
+        for t in [0.0175, 0.02, 0.0301, 0.035] {
+            let (a, b) = (all.at(t).unwrap(), since.at(t).unwrap());
+            assert_eq!((a.v_n, a.q_b_n), (b.v_n, b.q_b_n));
+        }
     }
 
     #[test]

@@ -387,7 +387,8 @@ impl<T: Real> Engine<T> {
             overflow = true;
         }
         let _ = self.pending.push_back(msg);
-        let reports = self.advance();
+        let mut reports = StepReports::new();
+        self.advance(&mut reports);
         if overflow {
             Err(EngineError::PendingOverflow)
         } else {
@@ -428,14 +429,11 @@ impl<T: Real> Engine<T> {
             // The master is later than the hold allows: the oldest sample goes on alone.
             if let Some(oldest) = self.held.pop_front() {
                 self.integrate(&oldest);
-                reports = self.process_pending();
+                self.process_pending(&mut reports);
             }
         }
         let _ = self.held.push_back(HeldImu { s, dt, gap });
-        // Slice iteration: a heapless `Vec`'s by-value iterator keeps a panic path.
-        for r in self.advance().iter().copied() {
-            let _ = reports.push(r);
-        }
+        self.advance(&mut reports);
         Ok(reports)
     }
 
@@ -445,9 +443,7 @@ impl<T: Real> Engine<T> {
         let mut reports = StepReports::new();
         while let Some(h) = self.held.pop_front() {
             self.integrate(&h);
-            for r in self.process_pending().iter().copied() {
-                let _ = reports.push(r);
-            }
+            self.process_pending(&mut reports);
         }
         reports
     }
@@ -455,8 +451,10 @@ impl<T: Real> Engine<T> {
     /// Integrates held IMU samples as far as the waiting master messages need (the
     /// sample whose interval contains a master's time of validity, and all before it),
     /// matching each master as soon as the slave solution reaches it.
-    fn advance(&mut self) -> StepReports<T> {
-        let mut reports = self.process_pending();
+    /// Reports are appended to `reports` (passed down, not returned: a `StepReports` is
+    /// over a kilobyte, and copying it per IMU sample showed in the board's budget).
+    fn advance(&mut self, reports: &mut StepReports<T>) {
+        self.process_pending(reports);
         while let Some(front) = self.held.front() {
             let interval_start = front.s.t - front.dt;
             let wanted = self.pending.back().is_some_and(|m| m.t > interval_start);
@@ -466,11 +464,8 @@ impl<T: Real> Engine<T> {
             if let Some(h) = self.held.pop_front() {
                 self.integrate(&h);
             }
-            for r in self.process_pending().iter().copied() {
-                let _ = reports.push(r);
-            }
+            self.process_pending(reports);
         }
-        reports
     }
 
     /// One IMU sample into the strapdown, the alignment buffer and the filter's time update.
@@ -551,8 +546,9 @@ impl<T: Real> Engine<T> {
         });
     }
 
-    fn process_pending(&mut self) -> StepReports<T> {
-        let mut reports = StepReports::new();
+    /// Matches the pending master messages the slave solution has reached; their reports
+    /// are appended to `reports` (dropped when it is full, as before).
+    fn process_pending(&mut self, reports: &mut StepReports<T>) {
         while let Some(msg) = self.pending.front().copied() {
             let newest = self.buffer.newest_time();
             if newest.is_none_or(|t| msg.t > t) {
@@ -576,7 +572,6 @@ impl<T: Real> Engine<T> {
                 q_bm_n: msg.q_bm_n,
             });
         }
-        reports
     }
 
     /// Starts the slave solution at the master message's time from the master's
@@ -710,11 +705,8 @@ impl<T: Real> Engine<T> {
             // message uses its own IMU intervals and its own master sample (white noise).
             if let (Some(w_m), Ok(slave_rate)) = (msg.w_ib_bm, self.buffer.rate_at(msg.t)) {
                 let w_m_bs = exp_so3(&self.misalignment).transpose() * w_m;
-                let z = model::rate_residual(
-                    &(slave_rate.raw_b - self.gyro_bias),
-                    &self.misalignment,
-                    &w_m,
-                );
+                // `model::rate_residual` with Exp(μ̂)ᵀ ω_m computed once.
+                let z = (slave_rate.raw_b - self.gyro_bias) - w_m_bs;
                 let rows = model::rate_rows(&w_m_bs, &jr);
                 let noise = &self.cfg.measurement_noise;
                 let arw = self.cfg.process_noise.gyro_arw;
@@ -723,7 +715,7 @@ impl<T: Real> Engine<T> {
                 report.angular_rate = Some(self.update3(&rows, &z, r, gate));
             }
         }
-        self.feedback();
+        self.feedback(msg.t);
         self.last_update_t = msg.t;
         Ok(report)
     }
@@ -749,7 +741,8 @@ impl<T: Real> Engine<T> {
 
     /// Closed loop: the estimated navigation errors, sensor biases and misalignment
     /// go into the nominal solution and their states return to zero. Flexure stays.
-    fn feedback(&mut self) {
+    /// `t`: the time of the master message just matched; later messages are later.
+    fn feedback(&mut self, t: f64) {
         let x = self.kf.state();
         let block = |b: usize| Vector3::new(vget(&x, b), vget(&x, b + 1), vget(&x, b + 2));
         let (dv, psi) = (block(V), block(PSI));
@@ -761,7 +754,7 @@ impl<T: Real> Engine<T> {
             // f32 quaternion would be lost systematically).
             sd.correct(&dv, &psi);
         }
-        self.buffer.correct(&dv, &psi);
+        self.buffer.correct_since(t, &dv, &psi);
         self.kf.reset_states(V..TH);
     }
 }

@@ -121,49 +121,86 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// Time update `x ← Φ x`, `P ← Φ P Φᵀ + Q` (physical-unit Φ and Q), using only the
     /// non-zero entries of Φ and computing one triangle of the symmetric result.
     pub fn predict(&mut self, phi: &SMatrix<T, N, N>, q: &SMatrix<T, N, N>) {
-        // Scaled transition Φ_s = S⁻¹ Φ S, and its non-zero pattern per row.
-        let mut phis = SMatrix::<T, N, N>::zeros();
-        let mut cols: [[usize; N]; N] = [[0; N]; N];
+        // Plain slices throughout (matrices are column-major: (i, j) at j·N + i); nalgebra's
+        // element iterators are not inlined in the size-optimized board image.
+        let scale = self.scale.as_slice();
+        let sc = |i: usize| scale.get(i).copied().unwrap_or_else(T::one);
+        // Non-zeros of the scaled transition Φ_s = S⁻¹ Φ S per row, as (column, value),
+        // columns ascending (one pass over Φ's columns in order).
+        let mut nz: [[(usize, T); N]; N] = [[(0, T::zero()); N]; N];
         let mut counts = [0usize; N];
-        for i in 0..N {
-            for j in 0..N {
-                let v = mat::get(phi, i, j);
+        for (j, col) in phi.as_slice().chunks_exact(N).enumerate() {
+            for (i, ((&v, row), c)) in col
+                .iter()
+                .zip(nz.iter_mut())
+                .zip(counts.iter_mut())
+                .enumerate()
+            {
                 if v != T::zero() {
-                    let vs = v * vget(&self.scale, j) / vget(&self.scale, i);
-                    mat::set(&mut phis, i, j, vs);
-                    if let (Some(row), Some(c)) = (cols.get_mut(i), counts.get_mut(i)) {
-                        if let Some(slot) = row.get_mut(*c) {
-                            *slot = j;
-                        }
-                        *c += 1;
+                    if let Some(slot) = row.get_mut(*c) {
+                        *slot = (j, v * sc(j) / sc(i));
+                    }
+                    *c += 1;
+                }
+            }
+        }
+        let mut xs_new = SVector::<T, N>::zeros();
+        for ((x, row), &c) in xs_new
+            .as_mut_slice()
+            .iter_mut()
+            .zip(nz.iter())
+            .zip(counts.iter())
+        {
+            *x = sparse_dot(row, c, self.xs.as_slice());
+        }
+        // P_s by rows (pt[j][k] = P_s(j, k)), so that row i of A = Φ_s P_s is a sum of
+        // whole rows: a[i] = Σ_j Φ_s(i, j) pt[j], j ascending (each element summed in the
+        // same order as a dot product of row i of Φ_s with column k of P_s).
+        let mut pt = [[T::zero(); N]; N];
+        for (k, pcol) in self.ps.as_slice().chunks_exact(N).enumerate() {
+            for (prow, &v) in pt.iter_mut().zip(pcol.iter()) {
+                if let Some(e) = prow.get_mut(k) {
+                    *e = v;
+                }
+            }
+        }
+        let mut a = [[T::zero(); N]; N];
+        for ((arow, row), &c) in a.iter_mut().zip(nz.iter()).zip(counts.iter()) {
+            for &(j, f) in row.get(..c).unwrap_or(&[]) {
+                if let Some(prow) = pt.get(j) {
+                    for (e, &p) in arow.iter_mut().zip(prow.iter()) {
+                        *e += f * p;
                     }
                 }
             }
         }
-        let sparse_row_dot = |i: usize, v: &dyn Fn(usize) -> T| -> T {
-            let mut acc = T::zero();
-            if let (Some(row), Some(&c)) = (cols.get(i), counts.get(i)) {
-                for &j in row.iter().take(c) {
-                    acc += mat::get(&phis, i, j) * v(j);
-                }
-            }
-            acc
-        };
-        let xs_new = SVector::<T, N>::from_fn(|i, _| sparse_row_dot(i, &|j| vget(&self.xs, j)));
-        // A = Φ_s P_s (row i of A combines the rows of P that row i of Φ touches).
-        let a =
-            SMatrix::<T, N, N>::from_fn(|i, k| sparse_row_dot(i, &|j| mat::get(&self.ps, j, k)));
         // P' = A Φ_sᵀ + Q_s, upper triangle then mirrored.
         let mut p_new = SMatrix::<T, N, N>::zeros();
-        for i in 0..N {
-            for j in i..N {
-                let v = sparse_row_dot(j, &|k| mat::get(&a, i, k))
-                    + mat::get(q, i, j) / (vget(&self.scale, i) * vget(&self.scale, j));
-                mat::set(&mut p_new, i, j, v);
-                mat::set(&mut p_new, j, i, v);
+        let qv = q.as_slice();
+        let pn = p_new.as_mut_slice();
+        for (i, arow) in a.iter().enumerate() {
+            for (j, (row, &c)) in nz.iter().zip(counts.iter()).enumerate().skip(i) {
+                let qij = qv.get(j * N + i).copied().unwrap_or_else(T::zero);
+                let qs = if qij != T::zero() {
+                    qij / (sc(i) * sc(j))
+                } else {
+                    T::zero()
+                };
+                let v = sparse_dot(row, c, arow) + qs;
+                if let Some(e) = pn.get_mut(j * N + i) {
+                    *e = v;
+                }
+                if let Some(e) = pn.get_mut(i * N + j) {
+                    *e = v;
+                }
             }
         }
-        if xs_new.iter().chain(p_new.iter()).all(|v| v.is_finite()) {
+        if xs_new
+            .as_slice()
+            .iter()
+            .chain(p_new.as_slice().iter())
+            .all(|v| v.is_finite())
+        {
             self.xs = xs_new;
             self.ps = p_new;
             self.clamp_variances();
@@ -175,8 +212,33 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// Sequential scalar update with measurement row `h` (physical units), measurement
     /// `z`, noise variance `r`, and gate `gate` in standard deviations.
     pub fn update_scalar(&mut self, h: &SVector<T, N>, z: T, r: T, gate: T) -> ScalarUpdate<T> {
-        let hs = h.component_mul(&self.scale);
-        let ph = self.ps * hs;
+        let mut hs = SVector::<T, N>::zeros();
+        // P h over the non-zero entries of h only (a matching row has at most 12).
+        let mut hnz = [(0usize, T::zero()); N];
+        let mut n_h = 0usize;
+        for (j, ((o, &hj), &sj)) in hs
+            .as_mut_slice()
+            .iter_mut()
+            .zip(h.as_slice().iter())
+            .zip(self.scale.as_slice().iter())
+            .enumerate()
+        {
+            *o = hj * sj;
+            if *o != T::zero() {
+                if let Some(slot) = hnz.get_mut(n_h) {
+                    *slot = (j, *o);
+                }
+                n_h += 1;
+            }
+        }
+        let mut ph = SVector::<T, N>::zeros();
+        for &(j, hj) in hnz.get(..n_h).unwrap_or(&[]) {
+            if let Some(pcol) = self.ps.as_slice().chunks_exact(N).nth(j) {
+                for (y, &p) in ph.as_mut_slice().iter_mut().zip(pcol.iter()) {
+                    *y += p * hj;
+                }
+            }
+        }
         let s = hs.dot(&ph) + r;
         let innovation = z - hs.dot(&self.xs);
         let refused = ScalarUpdate {
@@ -205,14 +267,29 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             };
         }
         self.health.gated_streak = 0;
-        let k = ph / s;
-        self.xs += k * innovation;
-        // P ← P − K (P h)ᵀ, symmetric by construction; one triangle computed.
-        for i in 0..N {
-            for j in i..N {
-                let v = mat::get(&self.ps, i, j) - vget(&k, i) * vget(&ph, j);
-                mat::set(&mut self.ps, i, j, v);
-                mat::set(&mut self.ps, j, i, v);
+        // K = P h / s.
+        let mut k = [T::zero(); N];
+        for ((ki, &phi), x) in k
+            .iter_mut()
+            .zip(ph.as_slice().iter())
+            .zip(self.xs.as_mut_slice().iter_mut())
+        {
+            *ki = phi / s;
+            *x += *ki * innovation;
+        }
+        // P ← P − K (P h)ᵀ, symmetric by construction; one triangle computed (column j,
+        // rows i ≤ j) and mirrored.
+        let ps = self.ps.as_mut_slice();
+        for (j, &phj) in ph.as_slice().iter().enumerate() {
+            for (i, &ki) in k.get(..=j).unwrap_or(&[]).iter().enumerate() {
+                let (ij, ji) = (j * N + i, i * N + j);
+                let v = ps.get(ij).copied().unwrap_or_else(T::zero) - ki * phj;
+                if let Some(e) = ps.get_mut(ij) {
+                    *e = v;
+                }
+                if let Some(e) = ps.get_mut(ji) {
+                    *e = v;
+                }
             }
         }
         self.clamp_variances();
@@ -233,6 +310,18 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             }
         }
     }
+}
+
+/// `Σ f · v[j]` over the first `count` `(j, f)` of `row`, in order, from zero.
+#[inline(always)]
+fn sparse_dot<T: Real>(row: &[(usize, T)], count: usize, v: &[T]) -> T {
+    let mut acc = T::zero();
+    for &(j, f) in row.get(..count).unwrap_or(&[]) {
+        if let Some(&x) = v.get(j) {
+            acc += f * x;
+        }
+    }
+    acc
 }
 
 #[cfg(test)]

@@ -108,16 +108,59 @@ pub fn nav_dynamics<T: Real>(m: &IntervalMeans<T>) -> SMatrix<T, NAV, NAV> {
     f
 }
 
+/// Rows of the navigation dynamics that are not zero: only δv and ψ have dynamics
+/// (`nav_dynamics`); the sensor and misalignment rows are zero.
+const DYN: usize = 6;
+
+/// `a b` for 15×15 matrices whose rows from `DYN` on are zero (powers of `nav_dynamics`):
+/// only the first `DYN` rows of the product and the first `DYN` rows of `b` contribute.
+/// Terms are summed in the order of the dense product, so the result is the same.
+fn nav_product<T: Real>(
+    a: &SMatrix<T, NAV, NAV>,
+    b: &SMatrix<T, NAV, NAV>,
+) -> SMatrix<T, NAV, NAV> {
+    let mut p = SMatrix::<T, NAV, NAV>::zeros();
+    let av = a.as_slice();
+    for (pc, bc) in p
+        .as_mut_slice()
+        .chunks_exact_mut(NAV)
+        .zip(b.as_slice().chunks_exact(NAV))
+    {
+        for (i, pe) in pc.iter_mut().take(DYN).enumerate() {
+            let mut acc = T::zero();
+            for (k, &bk) in bc.iter().take(DYN).enumerate() {
+                acc += av.get(k * NAV + i).copied().unwrap_or_else(T::zero) * bk;
+            }
+            *pe = acc;
+        }
+    }
+    p
+}
+
 /// Transition matrix Φ over one filter period `t` (s): third-order Taylor series of
 /// the navigation block (the bias-to-velocity path runs through three blocks), the
 /// exact discrete AR model on the flexure block.
 pub fn transition<T: Real>(m: &IntervalMeans<T>, flex: &FlexureModel<T>, t: T) -> StateMat<T> {
     let ft = nav_dynamics(m) * t;
-    let ft2 = ft * ft;
-    let phi_nav =
-        SMatrix::<T, NAV, NAV>::identity() + ft + ft2 * T::of(0.5) + ft2 * ft * T::of(1.0 / 6.0);
+    let ft2 = nav_product(&ft, &ft);
+    let ft3 = nav_product(&ft2, &ft);
+    // Φ_nav = I + F t + (F t)²/2 + (F t)³/6, element by element into Φ's top-left block
+    // (column-major slices: (i, j) at j·rows + i).
+    let (half, sixth) = (T::of(0.5), T::of(1.0 / 6.0));
     let mut phi = StateMat::<T>::zeros();
-    phi.fixed_view_mut::<NAV, NAV>(0, 0).copy_from(&phi_nav);
+    let cols = phi
+        .as_mut_slice()
+        .chunks_exact_mut(N)
+        .zip(ft.as_slice().chunks_exact(NAV))
+        .zip(ft2.as_slice().chunks_exact(NAV))
+        .zip(ft3.as_slice().chunks_exact(NAV));
+    for (j, (((pc, c1), c2), c3)) in cols.enumerate() {
+        let rows = pc.iter_mut().zip(c1).zip(c2).zip(c3);
+        for (i, (((p, &a1), &a2), &a3)) in rows.enumerate() {
+            let id = if i == j { T::one() } else { T::zero() };
+            *p = id + a1 + a2 * half + a3 * sixth;
+        }
+    }
     for (axis, ar) in flex.axes.iter().enumerate() {
         let a = ar.transition(flex.period_s);
         mat::set_pair(&mut phi, TH + axis, THD + axis, &a);
