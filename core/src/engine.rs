@@ -21,6 +21,10 @@ use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 pub const ALIGN_DEPTH: usize = 128;
 /// An IMU interval this many times longer than the previous one is a gap.
 const GAP_FACTOR: f64 = 2.5;
+/// Consecutive master messages with a rejected measurement in one channel after which
+/// the slave solution is re-initialized from the master (divergence, or a master that
+/// re-aligned): the filter would otherwise keep refusing that channel for good.
+pub const RESET_AFTER_GATED_MESSAGES: u32 = 20;
 /// IMU samples held back waiting for the master messages of their time (at 200 Hz,
 /// 0.32 s of master latency is absorbed exactly; beyond it samples go on alone).
 pub const IMU_HOLD_DEPTH: usize = 64;
@@ -240,6 +244,8 @@ pub struct Engine<T: Real> {
     prev_master: Option<PrevMaster<T>>,
     last_update_t: f64,
     counters: Counters,
+    /// Per channel (velocity, attitude, rate): consecutive messages with a gated axis.
+    gated_streaks: [u32; 3],
 }
 
 /// What one IMU sample led to: the master messages matched after it.
@@ -270,6 +276,7 @@ impl<T: Real> Engine<T> {
             prev_master: None,
             last_update_t: 0.0,
             counters: Counters::default(),
+            gated_streaks: [0; 3],
             cfg,
         })
     }
@@ -716,6 +723,7 @@ impl<T: Real> Engine<T> {
             }
         }
         self.feedback(msg.t);
+        self.reset_if_stuck(&report);
         self.last_update_t = msg.t;
         Ok(report)
     }
@@ -737,6 +745,36 @@ impl<T: Real> Engine<T> {
             *slot = self.kf.update_scalar(row, z[k], r, gate);
         }
         out
+    }
+
+    /// Counts, per channel, the messages in a row with a rejected measurement and
+    /// re-initializes after `RESET_AFTER_GATED_MESSAGES` of them: the slave solution
+    /// restarts from the next master message and the covariance from its initial value,
+    /// while the bias and misalignment estimates are kept as the new starting point.
+    fn reset_if_stuck(&mut self, report: &MatchReport<T>) {
+        let channels = [report.velocity, report.attitude, report.angular_rate];
+        for (streak, channel) in self.gated_streaks.iter_mut().zip(channels) {
+            let gated = channel.is_some_and(|u| u.iter().any(|s| !s.accepted));
+            *streak = if gated { streak.saturating_add(1) } else { 0 };
+        }
+        if self
+            .gated_streaks
+            .iter()
+            .all(|&s| s < RESET_AFTER_GATED_MESSAGES)
+        {
+            return;
+        }
+        let health = self.kf.health;
+        self.kf = Kalman::new(
+            &Self::initial_covariance(&self.cfg),
+            self.cfg.variance_floor,
+        );
+        self.kf.health = health;
+        self.strapdown = None;
+        self.buffer.clear();
+        self.epoch = None;
+        self.gated_streaks = [0; 3];
+        self.counters.resets += 1;
     }
 
     /// Closed loop: the estimated navigation errors, sensor biases and misalignment

@@ -90,14 +90,42 @@ fn master_at(t: f64) -> MasterNav<f64> {
 
 /// Runs `seconds` of a stationary slave and master, masters at 100 Hz.
 fn run_static(engine: &mut Engine<f64>, seconds: f64) {
+    run_span(engine, 0, seconds, UnitQuaternion::identity());
+}
+
+/// From IMU sample `first` on, `seconds` of a stationary slave, masters at 100 Hz
+/// reporting attitude `q_master`.
+fn run_span(engine: &mut Engine<f64>, first: usize, seconds: f64, q_master: UnitQuaternion<f64>) {
     let n = (seconds * 200.0) as usize;
-    for i in 0..=n {
+    for i in first..=first + n {
         let t = i as f64 * 0.005;
         engine.push_imu(imu_at(t, 0.005)).unwrap();
         if i % 2 == 0 {
-            engine.push_master(master_at(t)).unwrap();
+            engine
+                .push_master(MasterNav {
+                    q_bm_n: q_master,
+                    ..master_at(t)
+                })
+                .unwrap();
         }
     }
+}
+
+#[test]
+fn a_channel_that_keeps_rejecting_resets_the_filter_once() {
+    let mut e = Engine::new(config()).unwrap();
+    run_static(&mut e, 10.0);
+    assert_eq!(e.counters().resets, 0);
+    // The master re-aligns: its attitude steps by 3° about up, far outside the gate.
+    let step = UnitQuaternion::from_scaled_axis(Vector3::new(0.0, 0.0, 3f64.to_radians()));
+    run_span(&mut e, 2001, 5.0, step);
+    assert_eq!(e.counters().resets, 1, "{:?}", e.counters());
+    let gated_after_reset = e.health().gated;
+    run_span(&mut e, 3002, 5.0, step);
+    // After the reset the filter accepts the re-aligned master again.
+    assert_eq!(e.health().gated, gated_after_reset, "{:?}", e.health());
+    assert_eq!(e.counters().resets, 1);
+    assert!(e.estimates().gyro_bias.iter().all(|v| v.is_finite()));
 }
 
 #[test]

@@ -69,6 +69,7 @@ pub fn summary_json(
             "variance_clamped": res.health.variance_clamped,
             "bad_innovation_variance": res.health.bad_innovation_variance,
             "max_gated_streak": res.health.max_gated_streak,
+            "filter_resets": res.counters.resets,
         },
         "covariance": {
             "checks": res.covariance.checks,
