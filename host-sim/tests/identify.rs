@@ -766,7 +766,7 @@ fn aic_overfits_sometimes_bic_rarely() {
 
 /// The AIC overfit table of docs/identification.md (run with `--ignored --nocapture`).
 #[test]
-#[ignore]
+#[ignore = "regenerates the AIC over-fit table of docs/identification.md (slow); run with --ignored --nocapture"]
 fn aic_overfit_rate_table() {
     let runs = 200;
     println!("| model | n | AIC under/exact/over | BIC under/exact/over | Ljung-Box rejects (AIC order) |");
@@ -823,7 +823,7 @@ fn f32_on_an_oversampled_flexure_is_ill_conditioned() {
 
 /// The exact-ML table of docs/identification.md (run with `--ignored --nocapture`).
 #[test]
-#[ignore]
+#[ignore = "regenerates the exact-ML table of docs/identification.md; run with --ignored --nocapture"]
 fn exact_ml_table() {
     println!("| n | seed | conditional LS a1, a2 | exact ML a1, a2 | exact log-lik. LS -> ML |");
     println!("|---|---|---|---|---|");
