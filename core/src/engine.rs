@@ -760,10 +760,15 @@ impl<T: Real> Engine<T> {
         if self
             .gated_streaks
             .iter()
-            .all(|&s| s < RESET_AFTER_GATED_MESSAGES)
+            .any(|&s| s >= RESET_AFTER_GATED_MESSAGES)
         {
-            return;
+            self.reset();
         }
+    }
+
+    /// The re-initialization itself: slave solution dropped (the next master message
+    /// restarts it), covariance back to P₀, health counters kept, the reset counted.
+    fn reset(&mut self) {
         let health = self.kf.health;
         self.kf = Kalman::new(
             &Self::initial_covariance(&self.cfg),

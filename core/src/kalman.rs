@@ -153,21 +153,13 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         {
             *x = sparse_dot(row, c, self.xs.as_slice());
         }
-        // P_s by rows (pt[j][k] = P_s(j, k)), so that row i of A = Φ_s P_s is a sum of
-        // whole rows: a[i] = Σ_j Φ_s(i, j) pt[j], j ascending (each element summed in the
-        // same order as a dot product of row i of Φ_s with column k of P_s).
-        let mut pt = [[T::zero(); N]; N];
-        for (k, pcol) in self.ps.as_slice().chunks_exact(N).enumerate() {
-            for (prow, &v) in pt.iter_mut().zip(pcol.iter()) {
-                if let Some(e) = prow.get_mut(k) {
-                    *e = v;
-                }
-            }
-        }
+        // Row i of A = Φ_s P_s is a sum of whole rows of P_s: a[i] = Σ_j Φ_s(i, j) P_s(j, ·),
+        // j ascending. P_s is exactly symmetric (every update writes both triangles from
+        // one value), so row j is column j: the column-major storage's j-th chunk.
         let mut a = [[T::zero(); N]; N];
         for ((arow, row), &c) in a.iter_mut().zip(nz.iter()).zip(counts.iter()) {
             for &(j, f) in row.get(..c).unwrap_or(&[]) {
-                if let Some(prow) = pt.get(j) {
+                if let Some(prow) = self.ps.as_slice().chunks_exact(N).nth(j) {
                     for (e, &p) in arow.iter_mut().zip(prow.iter()) {
                         *e += f * p;
                     }

@@ -377,50 +377,6 @@ mod tests {
         assert!(quat_log(&sd.nav.q_b_n).norm() < 1e-9);
     }
 
-    #[test]
-    fn coning_motion_keeps_attitude_accurate() {
-        // Classic coning: the body axis precesses; compare with the exact attitude.
-        let (alpha, w, dt) = (0.01_f64, 2.0 * core::f64::consts::PI * 2.0, 0.005);
-        let exact = |t: f64| {
-            // q(t) = Exp(α [cos wt, sin wt, 0]) applied as rotation vector: integrate numerically.
-            quat_exp(&Vector3::new(
-                alpha * (w * t).cos(),
-                alpha * (w * t).sin(),
-                0.0,
-            ))
-        };
-        // Generate exact increments by fine integration of ω = 2 log(q(t)^-1 q(t+h))/h.
-        let steps = 2000;
-        let mut sd = Strapdown::new(NavState {
-            q_b_n: exact(0.0),
-            v_n: Vector3::zeros(),
-            pos: Position::default(),
-        });
-        let sub = 50;
-        let mut q_ref = exact(0.0);
-        // The attitude update of `Strapdown::step`, without its n-frame rotation.
-        for k in 0..steps {
-            let mut dth = Vector3::zeros();
-            for j in 0..sub {
-                let t0 = k as f64 * dt + j as f64 * dt / sub as f64;
-                let t1 = t0 + dt / sub as f64;
-                dth += quat_log(&(exact(t0).inverse() * exact(t1)));
-            }
-            // Integrate the body rotation only (the Earth terms are tested above).
-            q_ref = exact((k + 1) as f64 * dt);
-            let phi = dth + sd.prev.map_or(Vector3::zeros(), |p| p.dtheta_b).cross(&dth) / 12.0;
-            sd.nav.q_b_n *= quat_exp(&phi);
-            sd.prev = Some(Increments {
-                dtheta_b: dth,
-                dv_b: Vector3::zeros(),
-                dt,
-            });
-        }
-        let err = quat_log(&(q_ref.inverse() * sd.nav.q_b_n)).norm();
-        // Without the coning term the drift would be α² w t / 2 ≈ 5e-4 rad over 10 s.
-        assert!(err < 2e-6, "attitude error {err}");
-    }
-
     /// The coning test through the update `step` uses (`rotate`, with the coning term
     /// as its own increment), in both precisions.
     fn coning_error<T: Real>() -> f64 {
