@@ -38,6 +38,8 @@ pub struct SlaveAt<T: Real> {
 pub struct RateAt<T: Real> {
     /// Raw (not bias-corrected) rate, slave body (rad/s).
     pub raw_b: Vector3<T>,
+    /// Raw specific force at the same time, interpolated the same way, slave body (m/s²).
+    pub f_raw_b: Vector3<T>,
     /// Σ wᵢ²/dtᵢ over the interpolation weights (1/s): the rate's noise variance is
     /// the gyro angle-random-walk density squared times this.
     pub noise_gain: f64,
@@ -152,8 +154,12 @@ impl<T: Real, const M: usize> AlignBuffer<T, M> {
         let lambda = if m1 > m0 { (t - m0) / (m1 - m0) } else { 1.0 };
         let r0 = p.dtheta_raw_b / T::of(p.dt);
         let r1 = s.dtheta_raw_b / T::of(s.dt);
+        let f0 = p.dv_raw_b / T::of(p.dt);
+        let f1 = s.dv_raw_b / T::of(s.dt);
         Ok(RateAt {
             raw_b: r0 * T::of(1.0 - lambda) + r1 * T::of(lambda),
+            f_raw_b: f0 * T::of(1.0 - lambda) + f1 * T::of(lambda),
+
             noise_gain: (1.0 - lambda) * (1.0 - lambda) / p.dt + lambda * lambda / s.dt,
         })
     }

@@ -3,7 +3,8 @@
 //! closed-loop feedback, and the estimates it produces. The same code runs on the
 //! board (f32) and the desktop (f64).
 
-use crate::align::{AlignBuffer, AlignError, Snapshot};
+use crate::align::{AlignBuffer, AlignError, SlaveAt, Snapshot};
+use crate::augment::{self, Augmentation, Channel, Effect, Signature};
 use crate::earth::{self, Position};
 use crate::flexure::FlexureModel;
 use crate::kalman::{Health, Kalman, ScalarUpdate};
@@ -98,6 +99,8 @@ pub struct EngineConfig<T: Real> {
     pub gate_sigma: T,
     /// Smallest scaled variance (see `Kalman`).
     pub variance_floor: T,
+    /// Effects carried beyond the declared model (states from index 21 on).
+    pub augmentation: Augmentation<T>,
 }
 
 /// One master navigation message.
@@ -142,6 +145,8 @@ pub enum EngineError {
     PendingOverflow,
     /// The configuration is inconsistent (flexure period ≠ filter period, non-positive values).
     BadConfig,
+    /// The augmentation needs more states than this engine's dimension has.
+    TooManyStates,
 }
 
 /// The matching innovations of one master message (absent channels are `None`).
@@ -225,12 +230,27 @@ struct PrevMaster<T: Real> {
     q_bm_n: UnitQuaternion<T>,
 }
 
+/// One augmented effect's estimate.
+#[derive(Clone, Copy, Debug)]
+pub struct EffectEstimate<T> {
+    /// The effect.
+    pub effect: Effect,
+    /// Its states (SI unit of the effect); the first `effect.states()` are used.
+    pub value: [T; 9],
+    /// Their standard deviations.
+    pub sigma: [T; 9],
+}
+
 /// The engine. Feed it with [`Engine::push_imu`] and [`Engine::push_master`].
+///
+/// `S` is the dimension of the filter's state: the declared 21 states, then the blocks
+/// of `EngineConfig::augmentation`; states beyond those are inert (unit variance, no
+/// dynamics, never measured), so one engine size runs every layout that fits.
 #[derive(Clone, Debug)]
-pub struct Engine<T: Real> {
+pub struct Engine<T: Real, const S: usize = N> {
     cfg: EngineConfig<T>,
     strapdown: Option<Strapdown<T>>,
-    kf: Kalman<T, N>,
+    kf: Kalman<T, S>,
     buffer: AlignBuffer<T, ALIGN_DEPTH>,
     pending: Deque<MasterNav<T>, PENDING_DEPTH>,
     held: Deque<HeldImu<T>, IMU_HOLD_DEPTH>,
@@ -246,12 +266,18 @@ pub struct Engine<T: Real> {
     counters: Counters,
     /// Per channel (velocity, attitude, rate): consecutive messages with a gated axis.
     gated_streaks: [u32; 3],
+    /// Nominal master delay τ̂ (s) when the layout carries `time_delay`: a master
+    /// message stamped t is matched with the slave at t − τ̂ (closed loop, like the biases).
+    delay_s: f64,
 }
+
+/// Largest master delay the engine follows (s): within the alignment buffer's reach.
+pub const MAX_DELAY_S: f64 = 0.25;
 
 /// What one IMU sample led to: the master messages matched after it.
 pub type StepReports<T> = Vec<MatchReport<T>, PENDING_DEPTH>;
 
-impl<T: Real> Engine<T> {
+impl<T: Real, const S: usize> Engine<T, S> {
     /// A new engine; it initializes the slave solution from the first master message.
     pub fn new(cfg: EngineConfig<T>) -> Result<Self, EngineError> {
         let period_ok = cfg.filter_period_s > 0.0 && cfg.filter_period_s.is_finite();
@@ -259,6 +285,9 @@ impl<T: Real> Engine<T> {
             <= 1e-6 * cfg.filter_period_s;
         if !(period_ok && flex_ok && cfg.gate_sigma > T::zero()) {
             return Err(EngineError::BadConfig);
+        }
+        if cfg.augmentation.dimension() > S || S < N {
+            return Err(EngineError::TooManyStates);
         }
         let p0 = Self::initial_covariance(&cfg);
         Ok(Self {
@@ -277,6 +306,7 @@ impl<T: Real> Engine<T> {
             last_update_t: 0.0,
             counters: Counters::default(),
             gated_streaks: [0; 3],
+            delay_s: 0.0,
             cfg,
         })
     }
@@ -284,8 +314,8 @@ impl<T: Real> Engine<T> {
     /// The initial covariance. The slave's attitude is initialized from the master's
     /// through μ̂₀, so its error is ψ₀ = −J_r(μ̂₀)(δμ + θ₀) plus the master's attitude
     /// noise: ψ is correlated with δμ and θ from the start, and P₀ says so.
-    fn initial_covariance(cfg: &EngineConfig<T>) -> StateMat<T> {
-        let mut p = StateMat::<T>::zeros();
+    fn initial_covariance(cfg: &EngineConfig<T>) -> StateMat<T, S> {
+        let mut p = StateMat::<T, S>::zeros();
         let s = &cfg.initial_sigma;
         let sq = |x: T| x * x;
         let blocks = [
@@ -310,11 +340,25 @@ impl<T: Real> Engine<T> {
                 }
             }
         }
+        // Augmented blocks: their priors; states past them are inert (unit variance).
+        for b in cfg.augmentation.blocks() {
+            for k in 0..b.effect.states() {
+                mat::set(&mut p, b.offset + k, b.offset + k, sq(b.prior_sigma));
+            }
+        }
+        for i in cfg.augmentation.dimension()..S {
+            mat::set(&mut p, i, i, T::one());
+        }
         // ψ = −J (δμ + θ) + n: propagate the covariance through that linear map.
         let j = right_jacobian(&cfg.initial_misalignment_rad);
-        let mut a = StateMat::<T>::identity();
-        a.fixed_view_mut::<3, 3>(PSI, MU).copy_from(&(-j));
-        a.fixed_view_mut::<3, 3>(PSI, TH).copy_from(&(-j));
+        let mut a = StateMat::<T, S>::identity();
+        for r in 0..3 {
+            for c in 0..3 {
+                let v = -mat::get(&j, r, c);
+                mat::set(&mut a, PSI + r, MU + c, v);
+                mat::set(&mut a, PSI + r, TH + c, v);
+            }
+        }
         let mut p = a * p * a.transpose();
         for k in 0..3 {
             let i = PSI + k;
@@ -340,8 +384,35 @@ impl<T: Real> Engine<T> {
     }
 
     /// The filter (for covariance checks and reports).
-    pub fn filter(&self) -> &Kalman<T, N> {
+    pub fn filter(&self) -> &Kalman<T, S> {
         &self.kf
+    }
+
+    /// The estimate of an augmented effect, if the layout carries it.
+    pub fn effect_estimate(&self, effect: Effect) -> Option<EffectEstimate<T>> {
+        let offset = self.cfg.augmentation.offset(effect)?;
+        let x = self.kf.state();
+        let mut e = EffectEstimate {
+            effect,
+            value: [T::zero(); 9],
+            sigma: [T::zero(); 9],
+        };
+        for (k, (v, s)) in e
+            .value
+            .iter_mut()
+            .zip(e.sigma.iter_mut())
+            .take(effect.states())
+            .enumerate()
+        {
+            *v = vget(&x, offset + k);
+            *s = self.kf.sigma(offset + k);
+        }
+        if effect == Effect::TimeDelay {
+            if let Some(v) = e.value.first_mut() {
+                *v += T::of(self.delay_s);
+            }
+        }
+        Some(e)
     }
 
     /// The slave navigation solution, once initialized.
@@ -535,8 +606,8 @@ impl<T: Real> Engine<T> {
             v_n: nav.v_n,
             pos: nav.pos,
         };
-        let phi = model::transition(&means, &self.cfg.flexure, dtt);
-        let q = model::process_noise(&self.cfg.process_noise, &self.cfg.flexure, dtt);
+        let phi = model::transition::<T, S>(&means, &self.cfg.flexure, &self.cfg.augmentation, dtt);
+        let q = model::process_noise::<T, S>(&self.cfg.process_noise, &self.cfg.flexure, dtt);
         self.kf.predict(&phi, &q);
         self.counters.predictions += 1;
         // The next epoch; after a gap, restart the grid from this sample.
@@ -558,7 +629,7 @@ impl<T: Real> Engine<T> {
     fn process_pending(&mut self, reports: &mut StepReports<T>) {
         while let Some(msg) = self.pending.front().copied() {
             let newest = self.buffer.newest_time();
-            if newest.is_none_or(|t| msg.t > t) {
+            if newest.is_none_or(|t| msg.t - self.delay_s > t) {
                 break;
             }
             let _ = self.pending.pop_front();
@@ -673,8 +744,51 @@ impl<T: Real> Engine<T> {
         }
     }
 
+    /// The columns' ingredients of the augmented blocks at slave time `t_s`.
+    fn signature(
+        &self,
+        t_s: f64,
+        slave: &SlaveAt<T>,
+        msg: &MasterNav<T>,
+        c_bm_n: &Matrix3<T>,
+        w_eb_bm: &Vector3<T>,
+    ) -> Signature<T> {
+        let c_bs_n = dcm(&slave.q_b_n);
+        let rate = self.buffer.rate_at(t_s).ok();
+        let w_ib_bs = rate.map_or(Vector3::zeros(), |r| r.raw_b - self.gyro_bias);
+        let f_bs = rate.map_or(Vector3::zeros(), |r| r.f_raw_b - self.accel_bias);
+        // The slave's angular acceleration over the last filter period (its error only
+        // scales the delay's *error* in the closed loop, so a backward difference will do).
+        let d = self.cfg.filter_period_s;
+        let w_dot_bs = match (rate, self.buffer.rate_at(t_s - d)) {
+            (Some(a), Ok(b)) => (a.raw_b - b.raw_b) / T::of(d),
+            _ => Vector3::zeros(),
+        };
+        let w_ie = earth::earth_rate_n(msg.pos.lat_rad);
+        let w_en = earth::transport_rate_n(&msg.pos, &slave.v_n);
+        // v̇ = C f + g − (2ω_ie + ω_en) × v, from the sensed force (not from differences
+        // of the snapshots, which closed-loop corrections make jump).
+        let v_dot_n = c_bs_n * f_bs + earth::gravity_n(&msg.pos)
+            - (w_ie * T::of(2.0) + w_en).cross(&slave.v_n);
+        let x = self.kf.state();
+        let block = |b: usize| Vector3::new(vget(&x, b), vget(&x, b + 1), vget(&x, b + 2));
+        Signature {
+            c_bm_n: *c_bm_n,
+            w_eb_bm: *w_eb_bm,
+            v_dot_n,
+            w_nb_bs: w_ib_bs - c_bs_n.transpose() * (w_ie + w_en),
+            w_dot_bs,
+            w_ib_bs,
+            f_bs,
+            theta: block(TH),
+            theta_rate: block(THD),
+        }
+    }
+
     fn match_master(&mut self, msg: &MasterNav<T>) -> Result<MatchReport<T>, AlignError> {
-        let slave = self.buffer.at(msg.t)?;
+        // The master's state belongs to the slave's time t − τ̂ (τ̂ = 0 without the delay block).
+        let t_s = msg.t - self.delay_s;
+        let slave = self.buffer.at(t_s)?;
         let c_bm_n = dcm(&msg.q_bm_n);
         let mut report = MatchReport {
             t: msg.t,
@@ -683,17 +797,25 @@ impl<T: Real> Engine<T> {
         let gate = self.cfg.gate_sigma;
         let jr = right_jacobian(&self.misalignment);
         let m = self.cfg.matching;
+        let (w_eb, w_eb_var) = self.master_rate_wrt_earth(msg, &c_bm_n);
+        let aug = self.cfg.augmentation;
+        let sig = (!aug.is_empty()).then(|| self.signature(t_s, &slave, msg, &c_bm_n, &w_eb));
+        let augment = |rows: &mut model::Rows<T, S>, channel: Channel| {
+            if let Some(sig) = &sig {
+                augment::add_measurement(rows, &aug, channel, sig);
+            }
+        };
 
         if m.velocity {
-            let (w_eb, w_eb_var) = self.master_rate_wrt_earth(msg, &c_bm_n);
             let r0 = self.cfg.lever_arm_m;
             let z = model::velocity_residual(&slave.v_n, &msg.v_n, &c_bm_n, &w_eb, &r0);
             let r_bend = self.cfg.bending.matrix(&r0);
-            let rows = model::velocity_rows(
+            let mut rows = model::velocity_rows::<T, S>(
                 &c_bm_n,
                 &w_eb,
                 self.cfg.dynamic_lever_arm.then_some(&r_bend),
             );
+            augment(&mut rows, Channel::Velocity);
             // The master's velocity noise, plus the rate noise carried by the lever arm:
             // var(n_ω × r0) averaged over the axes is ⅔ |r0|² σ_ω².
             let sigma_v = self.cfg.measurement_noise.velocity_mps;
@@ -702,7 +824,8 @@ impl<T: Real> Engine<T> {
         }
         if m.attitude {
             let z = model::attitude_residual(&self.misalignment, &c_bm_n, &dcm(&slave.q_b_n));
-            let rows = model::attitude_rows(&jr);
+            let mut rows = model::attitude_rows::<T, S>(&jr);
+            augment(&mut rows, Channel::Attitude);
             let r =
                 self.cfg.measurement_noise.attitude_rad * self.cfg.measurement_noise.attitude_rad;
             report.attitude = Some(self.update3(&rows, &z, r, gate));
@@ -710,11 +833,12 @@ impl<T: Real> Engine<T> {
         if m.angular_rate {
             // The master's rate at t_v against the slave's, interpolated at t_v: each
             // message uses its own IMU intervals and its own master sample (white noise).
-            if let (Some(w_m), Ok(slave_rate)) = (msg.w_ib_bm, self.buffer.rate_at(msg.t)) {
+            if let (Some(w_m), Ok(slave_rate)) = (msg.w_ib_bm, self.buffer.rate_at(t_s)) {
                 let w_m_bs = exp_so3(&self.misalignment).transpose() * w_m;
                 // `model::rate_residual` with Exp(μ̂)ᵀ ω_m computed once.
                 let z = (slave_rate.raw_b - self.gyro_bias) - w_m_bs;
-                let rows = model::rate_rows(&w_m_bs, &jr);
+                let mut rows = model::rate_rows::<T, S>(&w_m_bs, &jr);
+                augment(&mut rows, Channel::AngularRate);
                 let noise = &self.cfg.measurement_noise;
                 let arw = self.cfg.process_noise.gyro_arw;
                 let r =
@@ -722,7 +846,7 @@ impl<T: Real> Engine<T> {
                 report.angular_rate = Some(self.update3(&rows, &z, r, gate));
             }
         }
-        self.feedback(msg.t);
+        self.feedback(t_s);
         self.reset_if_stuck(&report);
         self.last_update_t = msg.t;
         Ok(report)
@@ -730,7 +854,7 @@ impl<T: Real> Engine<T> {
 
     fn update3(
         &mut self,
-        rows: &model::Rows<T>,
+        rows: &model::Rows<T, S>,
         z: &Vector3<T>,
         r: T,
         gate: T,
@@ -799,5 +923,10 @@ impl<T: Real> Engine<T> {
         }
         self.buffer.correct_since(t, &dv, &psi);
         self.kf.reset_states(V..TH);
+        if let Some(o) = self.cfg.augmentation.offset(Effect::TimeDelay) {
+            let tau = self.delay_s + vget(&x, o).to_f64();
+            self.delay_s = tau.clamp(-MAX_DELAY_S, MAX_DELAY_S);
+            self.kf.reset_states(o..o + 1);
+        }
     }
 }

@@ -17,6 +17,7 @@
 )]
 
 pub mod align;
+pub mod augment;
 pub mod earth;
 pub mod engine;
 pub mod flexure;

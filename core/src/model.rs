@@ -19,6 +19,7 @@
 //!
 //! The paper's ψ_a is our μ and its ψ_m is μ + θ + ψ (a linear change of variables).
 
+use crate::augment::{self, Augmentation};
 use crate::earth::{self, Position};
 use crate::flexure::FlexureModel;
 use crate::mat;
@@ -45,10 +46,10 @@ pub const THD: usize = 18;
 /// Number of navigation and sensor states (everything before the flexure block).
 const NAV: usize = 15;
 
-/// State vector.
-pub type StateVec<T> = SVector<T, N>;
+/// State vector of dimension `S` (the declared 21 states, then any augmented blocks).
+pub type StateVec<T, const S: usize = N> = SVector<T, S>;
 /// State-sized square matrix.
-pub type StateMat<T> = SMatrix<T, N, N>;
+pub type StateMat<T, const S: usize = N> = SMatrix<T, S, S>;
 
 /// What the slave sensed and was over one filter period: the linearization point of Φ.
 #[derive(Clone, Copy, Debug)]
@@ -112,24 +113,24 @@ pub fn nav_dynamics<T: Real>(m: &IntervalMeans<T>) -> SMatrix<T, NAV, NAV> {
 /// (`nav_dynamics`); the sensor and misalignment rows are zero.
 const DYN: usize = 6;
 
-/// `a b` for 15×15 matrices whose rows from `DYN` on are zero (powers of `nav_dynamics`):
+/// `a b` for S×S matrices whose rows from `DYN` on are zero (powers of the dynamics):
 /// only the first `DYN` rows of the product and the first `DYN` rows of `b` contribute.
 /// Terms are summed in the order of the dense product, so the result is the same.
-fn nav_product<T: Real>(
-    a: &SMatrix<T, NAV, NAV>,
-    b: &SMatrix<T, NAV, NAV>,
-) -> SMatrix<T, NAV, NAV> {
-    let mut p = SMatrix::<T, NAV, NAV>::zeros();
+fn dyn_product<T: Real, const S: usize>(
+    a: &SMatrix<T, S, S>,
+    b: &SMatrix<T, S, S>,
+) -> SMatrix<T, S, S> {
+    let mut p = SMatrix::<T, S, S>::zeros();
     let av = a.as_slice();
     for (pc, bc) in p
         .as_mut_slice()
-        .chunks_exact_mut(NAV)
-        .zip(b.as_slice().chunks_exact(NAV))
+        .chunks_exact_mut(S)
+        .zip(b.as_slice().chunks_exact(S))
     {
         for (i, pe) in pc.iter_mut().take(DYN).enumerate() {
             let mut acc = T::zero();
             for (k, &bk) in bc.iter().take(DYN).enumerate() {
-                acc += av.get(k * NAV + i).copied().unwrap_or_else(T::zero) * bk;
+                acc += av.get(k * S + i).copied().unwrap_or_else(T::zero) * bk;
             }
             *pe = acc;
         }
@@ -137,23 +138,45 @@ fn nav_product<T: Real>(
     p
 }
 
+/// Continuous-time dynamics of all `S` states: the navigation block, the augmented
+/// blocks' columns in the δv and ψ rows; the flexure rows are left to its AR model.
+pub fn dynamics<T: Real, const S: usize>(
+    m: &IntervalMeans<T>,
+    aug: &Augmentation<T>,
+) -> SMatrix<T, S, S> {
+    let nav = nav_dynamics(m);
+    let mut f = SMatrix::<T, S, S>::zeros();
+    for j in 0..NAV {
+        for i in 0..DYN {
+            mat::set(&mut f, i, j, mat::get(&nav, i, j));
+        }
+    }
+    augment::add_dynamics(&mut f, aug, (V, PSI), &m.f_b, &m.w_ib_b, &m.c_b_n);
+    f
+}
+
 /// Transition matrix Φ over one filter period `t` (s): third-order Taylor series of
-/// the navigation block (the bias-to-velocity path runs through three blocks), the
-/// exact discrete AR model on the flexure block.
-pub fn transition<T: Real>(m: &IntervalMeans<T>, flex: &FlexureModel<T>, t: T) -> StateMat<T> {
-    let ft = nav_dynamics(m) * t;
-    let ft2 = nav_product(&ft, &ft);
-    let ft3 = nav_product(&ft2, &ft);
-    // Φ_nav = I + F t + (F t)²/2 + (F t)³/6, element by element into Φ's top-left block
-    // (column-major slices: (i, j) at j·rows + i).
+/// the navigation and augmented blocks (the bias-to-velocity path runs through three
+/// blocks), the exact discrete AR model on the flexure block.
+pub fn transition<T: Real, const S: usize>(
+    m: &IntervalMeans<T>,
+    flex: &FlexureModel<T>,
+    aug: &Augmentation<T>,
+    t: T,
+) -> StateMat<T, S> {
+    let ft = dynamics::<T, S>(m, aug) * t;
+    let ft2 = dyn_product(&ft, &ft);
+    let ft3 = dyn_product(&ft2, &ft);
+    // Φ = I + F t + (F t)²/2 + (F t)³/6, element by element (column-major slices:
+    // (i, j) at j·rows + i).
     let (half, sixth) = (T::of(0.5), T::of(1.0 / 6.0));
-    let mut phi = StateMat::<T>::zeros();
+    let mut phi = StateMat::<T, S>::zeros();
     let cols = phi
         .as_mut_slice()
-        .chunks_exact_mut(N)
-        .zip(ft.as_slice().chunks_exact(NAV))
-        .zip(ft2.as_slice().chunks_exact(NAV))
-        .zip(ft3.as_slice().chunks_exact(NAV));
+        .chunks_exact_mut(S)
+        .zip(ft.as_slice().chunks_exact(S))
+        .zip(ft2.as_slice().chunks_exact(S))
+        .zip(ft3.as_slice().chunks_exact(S));
     for (j, (((pc, c1), c2), c3)) in cols.enumerate() {
         let rows = pc.iter_mut().zip(c1).zip(c2).zip(c3);
         for (i, (((p, &a1), &a2), &a3)) in rows.enumerate() {
@@ -168,13 +191,13 @@ pub fn transition<T: Real>(m: &IntervalMeans<T>, flex: &FlexureModel<T>, t: T) -
     phi
 }
 
-/// Discrete process noise Q over one filter period `t` (s).
-pub fn process_noise<T: Real>(
+/// Discrete process noise Q over one filter period `t` (s); augmented blocks are constants.
+pub fn process_noise<T: Real, const S: usize>(
     noise: &ProcessNoise<T>,
     flex: &FlexureModel<T>,
     t: T,
-) -> StateMat<T> {
-    let mut q = StateMat::<T>::zeros();
+) -> StateMat<T, S> {
+    let mut q = StateMat::<T, S>::zeros();
     let diag = [
         (V, noise.accel_vrw),
         (PSI, noise.gyro_arw),
@@ -196,10 +219,10 @@ pub fn process_noise<T: Real>(
 }
 
 /// Measurement rows of one three-axis matching measurement.
-pub type Rows<T> = [SVector<T, N>; 3];
+pub type Rows<T, const S: usize = N> = [SVector<T, S>; 3];
 
-fn rows_from_blocks<T: Real>(blocks: &[(usize, Matrix3<T>)]) -> Rows<T> {
-    let mut rows = [SVector::<T, N>::zeros(); 3];
+fn rows_from_blocks<T: Real, const S: usize>(blocks: &[(usize, Matrix3<T>)]) -> Rows<T, S> {
+    let mut rows = [SVector::<T, S>::zeros(); 3];
     for (axis, row) in rows.iter_mut().enumerate() {
         for (offset, b) in blocks {
             for k in 0..3 {
@@ -217,11 +240,11 @@ fn rows_from_blocks<T: Real>(blocks: &[(usize, Matrix3<T>)]) -> Rows<T> {
 /// `c_bm_n`: master attitude; `w_eb_bm`: master body rate relative to the Earth (rad/s,
 /// master body frame); `r_flex`: the matrix R of `r = r0 + R θ` (m/rad, master body
 /// frame), or `None` to leave the dynamic lever arm out (the paper's baseline).
-pub fn velocity_rows<T: Real>(
+pub fn velocity_rows<T: Real, const S: usize>(
     c_bm_n: &Matrix3<T>,
     w_eb_bm: &Vector3<T>,
     r_flex: Option<&Matrix3<T>>,
-) -> Rows<T> {
+) -> Rows<T, S> {
     match r_flex {
         Some(r) => rows_from_blocks(&[
             (V, Matrix3::identity()),
@@ -234,7 +257,7 @@ pub fn velocity_rows<T: Real>(
 
 /// Attitude matching `z_a = Log(Exp(−μ̂) C_bm^nᵀ Ĉ_bs^n)` (rad, slave body frame).
 /// `jr_mu`: the right Jacobian `J_r(μ̂)`.
-pub fn attitude_rows<T: Real>(jr_mu: &Matrix3<T>) -> Rows<T> {
+pub fn attitude_rows<T: Real, const S: usize>(jr_mu: &Matrix3<T>) -> Rows<T, S> {
     rows_from_blocks(&[(PSI, Matrix3::identity()), (MU, *jr_mu), (TH, *jr_mu)])
 }
 
@@ -242,7 +265,7 @@ pub fn attitude_rows<T: Real>(jr_mu: &Matrix3<T>) -> Rows<T> {
 /// both rates at the master message's time of validity (the slave's interpolated from
 /// its increments). For a flexure linear over each filter period the rate there is
 /// the period's θ̇. `w_m_bs`: `Exp(μ̂)ᵀ ω_m`.
-pub fn rate_rows<T: Real>(w_m_bs: &Vector3<T>, jr_mu: &Matrix3<T>) -> Rows<T> {
+pub fn rate_rows<T: Real, const S: usize>(w_m_bs: &Vector3<T>, jr_mu: &Matrix3<T>) -> Rows<T, S> {
     let wj = skew(w_m_bs) * jr_mu;
     rows_from_blocks(&[(MU, wj), (BG, Matrix3::identity()), (TH, wj), (THD, *jr_mu)])
 }

@@ -61,6 +61,7 @@ fn config() -> EngineConfig<f64> {
         initial_misalignment_rad: Vector3::zeros(),
         gate_sigma: 5.0,
         variance_floor: 1e-9,
+        augmentation: flexcal_core::augment::Augmentation::none(),
     }
 }
 
@@ -113,7 +114,7 @@ fn run_span(engine: &mut Engine<f64>, first: usize, seconds: f64, q_master: Unit
 
 #[test]
 fn a_channel_that_keeps_rejecting_resets_the_filter_once() {
-    let mut e = Engine::new(config()).unwrap();
+    let mut e = Engine::<f64>::new(config()).unwrap();
     run_static(&mut e, 10.0);
     assert_eq!(e.counters().resets, 0);
     // The master re-aligns: its attitude steps by 3° about up, far outside the gate.
@@ -130,7 +131,7 @@ fn a_channel_that_keeps_rejecting_resets_the_filter_once() {
 
 #[test]
 fn a_stationary_pair_calibrates_to_zero_errors() {
-    let mut e = Engine::new(config()).unwrap();
+    let mut e = Engine::<f64>::new(config()).unwrap();
     run_static(&mut e, 20.0);
     let est = e.estimates();
     assert!(
@@ -147,7 +148,7 @@ fn a_stationary_pair_calibrates_to_zero_errors() {
 
 #[test]
 fn refuses_non_finite_and_backward_imu_samples() {
-    let mut e = Engine::new(config()).unwrap();
+    let mut e = Engine::<f64>::new(config()).unwrap();
     e.push_imu(imu_at(0.0, 0.005)).unwrap();
     let mut bad = imu_at(0.005, 0.005);
     bad.dv_b.x = f64::NAN;
@@ -168,7 +169,7 @@ fn refuses_non_finite_and_backward_imu_samples() {
 
 #[test]
 fn refuses_out_of_order_and_counts_stale_masters() {
-    let mut e = Engine::new(config()).unwrap();
+    let mut e = Engine::<f64>::new(config()).unwrap();
     run_static(&mut e, 2.0);
     assert_eq!(
         e.push_master(master_at(1.0)).unwrap_err(),
@@ -179,7 +180,7 @@ fn refuses_out_of_order_and_counts_stale_masters() {
     nan.v_n.y = f64::INFINITY;
     assert_eq!(e.push_master(nan).unwrap_err(), EngineError::NonFinite);
     // A message newer than the last, but older than the alignment buffer, is stale.
-    let mut e2 = Engine::new(config()).unwrap();
+    let mut e2 = Engine::<f64>::new(config()).unwrap();
     e2.push_imu(imu_at(0.0, 0.005)).unwrap();
     e2.push_imu(imu_at(0.005, 0.005)).unwrap();
     e2.push_master(master_at(0.0)).unwrap();
@@ -192,7 +193,7 @@ fn refuses_out_of_order_and_counts_stale_masters() {
 
 #[test]
 fn too_many_waiting_masters_drop_the_oldest_and_say_so() {
-    let mut e = Engine::new(config()).unwrap();
+    let mut e = Engine::<f64>::new(config()).unwrap();
     e.push_imu(imu_at(0.0, 0.005)).unwrap();
     let mut last = Ok(());
     for k in 0..=PENDING_DEPTH {
@@ -206,10 +207,10 @@ fn too_many_waiting_masters_drop_the_oldest_and_say_so() {
 fn inconsistent_configuration_is_refused() {
     let mut c = config();
     c.flexure.period_s = 0.02;
-    assert_eq!(Engine::new(c).unwrap_err(), EngineError::BadConfig);
+    assert_eq!(Engine::<f64>::new(c).unwrap_err(), EngineError::BadConfig);
     let mut c = config();
     c.filter_period_s = f64::NAN;
-    assert_eq!(Engine::new(c).unwrap_err(), EngineError::BadConfig);
+    assert_eq!(Engine::<f64>::new(c).unwrap_err(), EngineError::BadConfig);
 }
 
 #[derive(Clone, Debug)]
@@ -252,7 +253,7 @@ proptest! {
                 t(a).total_cmp(&t(b))
             });
         }
-        let mut e = Engine::new(config()).unwrap();
+        let mut e = Engine::<f64>::new(config()).unwrap();
         for i in inputs {
             match i {
                 Input::Imu(t, v) => {

@@ -3,7 +3,9 @@
 //! For every navigation and sensor state, the slave's strapdown is run twice over
 //! the same true IMU increments: once from the true state, once with that state
 //! perturbed (±h). The central difference of the resulting errors, divided by h, is
-//! a column of the true transition; it must equal the model's Φ column.
+//! a column of the true transition; it must equal the model's Φ column. The sensor
+//! error blocks the diagnosis can add (scale factors, non-orthogonality, g-sensitivity)
+//! are checked the same way, the perturbed run's IMU distorted by them.
 //!
 //! Tolerances: the model's Φ is linearized at the mid-period attitude while the
 //! attitude turns by |ω|T (≈ 1.5e-4 rad over 1 ms, 1.5e-3 over 10 ms) during the
@@ -22,12 +24,13 @@
     clippy::panic
 )]
 
+use flexcal_core::augment::{Augmentation, Effect};
 use flexcal_core::earth::Position;
 use flexcal_core::flexure::{ArAxis, FlexureModel};
 use flexcal_core::model::{self, IntervalMeans};
 use flexcal_core::rotation::{dcm, nlerp, quat_exp, quat_log};
 use flexcal_core::strapdown::{Increments, NavState, Strapdown};
-use nalgebra::{SMatrix, SVector, Vector3};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 const NAV: usize = 15;
 
@@ -53,14 +56,55 @@ fn case() -> Case {
     }
 }
 
+/// The sensor error the augmented states of `x` put on the true rate `w` and force `f`:
+/// (gyro error, accelerometer error), per the conventions of `flexcal_core::augment`.
+fn sensor_errors<const S: usize>(
+    aug: &Augmentation<f64>,
+    x: &SVector<f64, S>,
+    w: &Vector3<f64>,
+    f: &Vector3<f64>,
+) -> (Vector3<f64>, Vector3<f64>) {
+    let (mut dw, mut df) = (Vector3::zeros(), Vector3::zeros());
+    let sym = |o: usize| {
+        Matrix3::new(
+            0.0,
+            x[o],
+            x[o + 1],
+            x[o],
+            0.0,
+            x[o + 2],
+            x[o + 1],
+            x[o + 2],
+            0.0,
+        )
+    };
+    for b in aug.blocks() {
+        let o = b.offset;
+        let v3 = Vector3::new(x[o], x[o + 1], x[o + 2]);
+        match b.effect {
+            Effect::GyroScaleFactor => dw += v3.component_mul(w),
+            Effect::GyroMisalignment => dw += sym(o) * w,
+            Effect::AccelScaleFactor => df += v3.component_mul(f),
+            Effect::AccelMisalignment => df += sym(o) * f,
+            Effect::GyroGSensitivity => {
+                dw += Matrix3::from_row_slice(&x.as_slice()[o..o + 9]) * f;
+            }
+            _ => {}
+        }
+    }
+    (dw, df)
+}
+
 /// Runs `steps` IMU intervals of `dt` from `start` with errors `x` (δv, ψ, ·, ε, ∇)
 /// and returns the error state against the unperturbed run.
-fn propagate(
+fn propagate<const S: usize>(
     c: &Case,
-    x: &SVector<f64, NAV>,
+    aug: &Augmentation<f64>,
+    x: &SVector<f64, S>,
     steps: usize,
     dt: f64,
-) -> (SVector<f64, NAV>, NavState<f64>) {
+) -> (SVector<f64, S>, NavState<f64>) {
+    let (dw, df) = sensor_errors(aug, x, &c.w_b, &c.f_b);
     // Returns the error state and the true state at the end of the period.
     let block = |b: usize| Vector3::new(x[b], x[b + 1], x[b + 2]);
     let mut truth = Strapdown::new(c.start);
@@ -77,8 +121,8 @@ fn propagate(
         };
         truth.step(&inc);
         est.step(&Increments {
-            dtheta_b: inc.dtheta_b + block(model::BG) * dt,
-            dv_b: inc.dv_b + block(model::BA) * dt,
+            dtheta_b: inc.dtheta_b + (block(model::BG) + dw) * dt,
+            dv_b: inc.dv_b + (block(model::BA) + df) * dt,
             dt,
         });
     }
@@ -92,23 +136,35 @@ fn propagate(
     (e, truth.nav)
 }
 
-fn check(steps: usize, dt: f64) {
+fn check<const S: usize>(aug: &Augmentation<f64>, steps: usize, dt: f64) {
+    assert_eq!(aug.dimension(), S);
     let c = case();
     let t = steps as f64 * dt;
     // Perturbation sizes per block: small enough that second-order terms vanish in the
     // central difference, large enough to stay above f64 rounding.
-    let h = [
+    // Augmented sensor-error blocks: 1e-4 (scale factors, angles), 1e-6 rad/s per m/s²
+    // (g-sensitivity: about 1e-5 rad/s at 1 g, like the bias's).
+    let nav_h = [
         1e-2, 1e-2, 1e-2, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-3, 1e-3, 1e-3,
     ];
-    let mut fd = SMatrix::<f64, NAV, NAV>::zeros();
+    let g_sens = aug.offset(Effect::GyroGSensitivity);
+    let h = |j: usize| match (nav_h.get(j), g_sens) {
+        (Some(&v), _) => v,
+        (None, Some(o)) if (o..o + 9).contains(&j) => 1e-6,
+        _ => 1e-4,
+    };
+    // Columns: the navigation and sensor states and the augmented blocks (the flexure
+    // block has no column in the mechanization).
+    let columns: Vec<usize> = (0..NAV).chain(model::N..S).collect();
+    let mut fd = SMatrix::<f64, S, S>::zeros();
     let mut end = c.start;
-    for j in 0..NAV {
-        let mut xp = SVector::<f64, NAV>::zeros();
-        xp[j] = h[j];
-        let (ep, nav) = propagate(&c, &xp, steps, dt);
-        let (em, _) = propagate(&c, &(-xp), steps, dt);
+    for &j in &columns {
+        let mut xp = SVector::<f64, S>::zeros();
+        xp[j] = h(j);
+        let (ep, nav) = propagate(&c, aug, &xp, steps, dt);
+        let (em, _) = propagate(&c, aug, &(-xp), steps, dt);
         end = nav;
-        fd.set_column(j, &((ep - em) / (2.0 * h[j])));
+        fd.set_column(j, &((ep - em) / (2.0 * h(j))));
     }
     let mid = nlerp(&c.start.q_b_n, &end.q_b_n, 0.5);
     let means = IntervalMeans {
@@ -126,22 +182,36 @@ fn check(steps: usize, dt: f64) {
         }; 3],
         period_s: t,
     };
-    let phi = model::transition(&means, &flex, t);
-    let names = ["dv", "psi", "mu", "bg", "ba"];
+    let phi = model::transition::<f64, S>(&means, &flex, aug, t);
+    let name = |i: usize| match i {
+        0..NAV => ["dv", "psi", "mu", "bg", "ba"][i / 3].to_string(),
+        _ => aug
+            .blocks()
+            .find(|b| (b.offset..b.offset + b.effect.states()).contains(&i))
+            .map_or("pad".into(), |b| b.effect.name().to_string()),
+    };
     for i in 0..NAV {
-        for j in 0..NAV {
+        for &j in &columns {
             let (m, d) = (phi[(i, j)], fd[(i, j)]);
+            // The column block: three states of the declared model, or the whole
+            // augmented effect (g-sensitivity's nine columns share one scale).
+            let cols = aug
+                .blocks()
+                .find(|b| (b.offset..b.offset + b.effect.states()).contains(&j))
+                .map_or(j / 3 * 3..j / 3 * 3 + 3, |b| {
+                    b.offset..b.offset + b.effect.states()
+                });
             let block_max = (0..3)
-                .flat_map(|a| (0..3).map(move |b| (i / 3 * 3 + a, j / 3 * 3 + b)))
+                .flat_map(|a| cols.clone().map(move |b| (i / 3 * 3 + a, b)))
                 .map(|(r, c)| (phi[(r, c)] - if r == c { 1.0 } else { 0.0 }).abs())
                 .fold(0.0, f64::max);
             let tol = 2e-4 * block_max + 1e-6 * t;
             assert!(
                 (m - d).abs() <= tol,
                 "Φ[{}{}, {}{}] over {t} s: model {m:.6e}, finite difference {d:.6e} (tolerance {tol:.1e})",
-                names[i / 3],
+                name(i),
                 i % 3,
-                names[j / 3],
+                name(j),
                 j % 3
             );
         }
@@ -150,10 +220,37 @@ fn check(steps: usize, dt: f64) {
 
 #[test]
 fn transition_matches_mechanization_over_one_imu_step() {
-    check(1, 1e-3);
+    check::<{ model::N }>(&Augmentation::none(), 1, 1e-3);
 }
 
 #[test]
 fn transition_matches_mechanization_over_one_filter_period() {
-    check(2, 5e-3);
+    check::<{ model::N }>(&Augmentation::none(), 2, 5e-3);
+}
+
+fn sensor_layout() -> Augmentation<f64> {
+    let mut aug = Augmentation::none();
+    for e in [
+        Effect::GyroScaleFactor,
+        Effect::GyroMisalignment,
+        Effect::AccelScaleFactor,
+        Effect::AccelMisalignment,
+    ] {
+        aug = aug.with(e, 1e-3).unwrap();
+    }
+    aug
+}
+
+#[test]
+fn scale_factor_and_nonorthogonality_columns_match_mechanization() {
+    check::<33>(&sensor_layout(), 1, 1e-3);
+    check::<33>(&sensor_layout(), 2, 5e-3);
+}
+
+#[test]
+fn g_sensitivity_columns_match_mechanization() {
+    let aug = Augmentation::none()
+        .with(Effect::GyroGSensitivity, 1e-4)
+        .unwrap();
+    check::<30>(&aug, 2, 5e-3);
 }

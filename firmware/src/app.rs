@@ -417,6 +417,7 @@ mod tests {
             initial_misalignment_rad: Vector3::zeros(),
             gate_sigma: 5.0,
             variance_floor: 1e-9,
+            augmentation: flexcal_core::augment::Augmentation::none(),
         };
         ConfigMsg::from_engine(&cfg, estimates_every, status_every)
     }

@@ -29,7 +29,7 @@ fn master(m: &flexcal_sim::recording::MasterMsg) -> MasterNav<f64> {
 /// Runs the engine with each master message handed over once the IMU stream has
 /// passed `t_v + delay(k)` (delays must keep the messages in order).
 fn run(rec: &Recording, cfg: &CalibConfig, delay: impl Fn(usize) -> f64) -> (Estimates<f64>, u32) {
-    let mut e = Engine::new(cfg.engine_config::<f64>(rec.meta.lever_arm_m)).unwrap();
+    let mut e = Engine::<f64>::new(cfg.engine_config::<f64>(rec.meta.lever_arm_m)).unwrap();
     e.push_imu(ImuIncrement {
         t: rec.imu_t0,
         dtheta_b: Vector3::zeros(),

@@ -93,7 +93,7 @@ fn check(bending: LeverBending) {
     let w_ib_bm = s.master.w_nb_bm + c_n_bm * (earth::earth_rate_n(s.pos.lat_rad) + w_en);
     let jr = right_jacobian(&mu_hat);
     let w_m_bs = exp_so3(&mu_hat).transpose() * w_ib_bm;
-    let rows = [
+    let rows: [model::Rows<f64>; 3] = [
         model::velocity_rows(&s.master.c_bm_n, &w_eb_bm, Some(&s.fx.r_bend)),
         model::attitude_rows(&jr),
         model::rate_rows(&w_m_bs, &jr),

@@ -406,6 +406,7 @@ impl ConfigMsg {
             initial_misalignment_rad: from_f32s(&self.initial_misalignment_rad),
             gate_sigma: c(self.gate_sigma),
             variance_floor: c(self.variance_floor),
+            augmentation: crate::augment::Augmentation::none(),
         }
     }
 

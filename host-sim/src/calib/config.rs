@@ -4,7 +4,9 @@
 //! declared model), so a file only says what differs.
 
 use crate::sim::{self, FlexureSpec, Scenario};
+use flexcal_core::augment::{AugmentError, Augmentation, Effect, MAX_EFFECTS};
 use flexcal_core::engine::{EngineConfig, InitialSigma, Matching, MeasurementNoise};
+
 use flexcal_core::flexure::{ArAxis, FlexureModel};
 use flexcal_core::model::{LeverBending, ProcessNoise};
 use flexcal_core::real::Real;
@@ -60,6 +62,9 @@ pub struct CalibConfig {
     pub initial_flexure_rad: f64,
     /// Innovation gate (σ).
     pub gate_sigma: f64,
+    /// Effects the filter carries beyond the declared 21 states, by their names in
+    /// `diagnosis.json` (e.g. `["time_delay"]`): what `flexcal diagnose` recommends.
+    pub effects: Vec<String>,
 }
 
 impl Default for CalibConfig {
@@ -96,6 +101,7 @@ impl CalibConfig {
             initial_accel_bias_mps2: 1.0 * sim::MG,
             initial_flexure_rad: 1e-3,
             gate_sigma: 5.0,
+            effects: Vec::new(),
         }
     }
 
@@ -188,7 +194,29 @@ impl CalibConfig {
                 return Err(format!("`{k}` must be a positive number, got {v}"));
             }
         }
-        Ok(())
+        self.augmentation::<f64>().map(|_| ())
+    }
+
+    /// The layout of `effects`, each with its default prior σ.
+    pub fn augmentation<T: Real>(&self) -> Result<Augmentation<T>, String> {
+        let mut aug = Augmentation::none();
+        for name in &self.effects {
+            let effect = Effect::from_name(name).ok_or_else(|| {
+                let known: Vec<&str> = Effect::ALL.iter().map(|e| e.name()).collect();
+                format!("`effects`: unknown effect `{name}` ({})", known.join(", "))
+            })?;
+            aug = aug
+                .with(effect, T::of(effect.default_prior_sigma()))
+                .map_err(|e| match e {
+                    AugmentError::Duplicate => format!("`effects`: `{name}` is listed twice"),
+                    AugmentError::Full => format!(
+                        "`effects`: at most {MAX_EFFECTS} effects at a time, got {}",
+                        self.effects.len()
+                    ),
+                    AugmentError::BadPrior => format!("`effects`: bad prior σ for `{name}`"),
+                })?;
+        }
+        Ok(aug)
     }
 
     /// The AR order of each axis's flexure model (trailing zero coefficients dropped).
@@ -222,6 +250,7 @@ impl CalibConfig {
     }
 
     /// The engine configuration in precision `T`, for a recording with lever arm `r0_m`.
+    /// An invalid `effects` list (which `validate` reports) carries no effect.
     pub fn engine_config<T: Real>(&self, r0_m: [f64; 3]) -> EngineConfig<T> {
         let c = T::of;
         let uniform = [
@@ -270,6 +299,7 @@ impl CalibConfig {
             initial_misalignment_rad: Vector3::zeros(),
             gate_sigma: c(self.gate_sigma),
             variance_floor: c(1e-9),
+            augmentation: self.augmentation().unwrap_or_default(),
         }
     }
 }

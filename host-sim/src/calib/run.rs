@@ -4,10 +4,11 @@
 
 use super::config::CalibConfig;
 use crate::recording::Recording;
+use flexcal_core::augment::Effect;
 use flexcal_core::earth::Position;
 use flexcal_core::engine::{Counters, Engine, ImuIncrement, MasterNav, MatchReport};
 use flexcal_core::kalman::Health;
-use flexcal_core::model::{BA, BG, MU, N};
+use flexcal_core::model::{BA, BG, MU};
 use flexcal_core::real::Real;
 use nalgebra::{Quaternion, SMatrix, UnitQuaternion, Vector3};
 
@@ -77,6 +78,21 @@ pub struct CovarianceCheck {
     pub min_diagonal: f64,
 }
 
+/// An augmented effect's estimate after one master update.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EffectRow {
+    /// Time of validity (s).
+    pub t: f64,
+    /// The effect.
+    pub effect: Effect,
+    /// Its states (SI unit of the effect).
+    pub value: Vec<f64>,
+    /// Their σ.
+    pub sigma: Vec<f64>,
+    /// The Wald statistic `x̂ᵀ P⁻¹ x̂` of the block (χ²(k) when the effect is absent).
+    pub wald: f64,
+}
+
 /// Everything a calibration run produced.
 pub struct CalibResult {
     /// Estimates after every master update.
@@ -93,6 +109,8 @@ pub struct CalibResult {
     pub final_cov9: SMatrix<f64, 9, 9>,
     /// Precision used.
     pub precision: Precision,
+    /// Augmented effects' estimates after every master update (empty for the declared model).
+    pub effect_rows: Vec<EffectRow>,
 }
 
 impl CalibResult {
@@ -114,6 +132,27 @@ impl CalibResult {
     /// The last estimates.
     pub fn last(&self) -> EstimateRow {
         self.rows.last().copied().unwrap_or_default()
+    }
+
+    /// The last estimate of each augmented effect.
+    pub fn final_effects(&self) -> Vec<EffectRow> {
+        let mut out: Vec<EffectRow> = Vec::new();
+        for r in self.effect_rows.iter().rev() {
+            if !out.iter().any(|o| o.effect == r.effect) {
+                out.push(r.clone());
+            }
+        }
+        out.sort_by_key(|r| r.effect);
+        out
+    }
+
+    /// −2 log-likelihood of the innovations (up to the constant `n ln 2π`):
+    /// `Σ ln s + ν²/s` over every scalar innovation, gated or not.
+    pub fn neg2_log_likelihood(&self) -> f64 {
+        self.innovations
+            .iter()
+            .map(|i| i.variance.ln() + i.value * i.value / i.variance)
+            .sum()
     }
 }
 
@@ -153,14 +192,29 @@ fn record_report<T: Real>(r: &MatchReport<T>, out: &mut Vec<Innovation>) {
     }
 }
 
-/// Calibrates a recording with a configuration, in precision `T`.
-pub fn run_generic<T: Real>(
+/// The Wald statistic `x̂ᵀ P⁻¹ x̂` of states `offset..offset + k`.
+fn wald<T: Real, const S: usize>(engine: &Engine<T, S>, offset: usize, k: usize) -> f64 {
+    let x = engine.filter().state();
+    let p = nalgebra::DMatrix::from_fn(k, k, |i, j| {
+        engine.filter().cov(offset + i, offset + j).to_f64()
+    });
+    let xv = nalgebra::DVector::from_fn(k, |i, _| x[offset + i].to_f64());
+    match p.cholesky() {
+        Some(ch) => xv.dot(&ch.solve(&xv)),
+        None => f64::NAN,
+    }
+}
+
+/// Calibrates a recording with a configuration, in precision `T` and state dimension `S`.
+fn run_generic<T: Real, const S: usize>(
     rec: &Recording,
     cfg: &CalibConfig,
     precision: Precision,
 ) -> Result<CalibResult, String> {
-    let mut engine = Engine::<T>::new(cfg.engine_config::<T>(rec.meta.lever_arm_m))
+    let mut engine = Engine::<T, S>::new(cfg.engine_config::<T>(rec.meta.lever_arm_m))
         .map_err(|e| format!("engine configuration refused: {e:?}"))?;
+    let aug = engine.config().augmentation;
+    let mut effect_rows = Vec::new();
     let mut rows = Vec::with_capacity(rec.master.len());
     let mut innovations = Vec::new();
     let mut cov = CovarianceCheck {
@@ -176,12 +230,31 @@ pub fn run_generic<T: Real>(
         .push_imu(start)
         .map_err(|e| format!("IMU start at t = {}: {e:?}", rec.imu_t0))?;
     let mut masters = rec.master.iter().peekable();
-    let mut handle = |engine: &Engine<T>,
+    let mut handle = |engine: &Engine<T, S>,
                       reports: &[MatchReport<T>],
                       rows: &mut Vec<EstimateRow>,
                       cov: &mut CovarianceCheck| {
         for r in reports {
             record_report(r, &mut innovations);
+            for b in aug.blocks() {
+                if let Some(est) = engine.effect_estimate(b.effect) {
+                    let k = b.effect.states();
+                    // The delay's state is the error of its fed-back nominal value.
+                    let offset = b.offset;
+                    effect_rows.push(EffectRow {
+                        t: r.t,
+                        effect: b.effect,
+                        value: est.value[..k].iter().map(|v| v.to_f64()).collect(),
+                        sigma: est.sigma[..k].iter().map(|v| v.to_f64()).collect(),
+                        wald: if b.effect == Effect::TimeDelay {
+                            let (v, s) = (est.value[0].to_f64(), est.sigma[0].to_f64());
+                            v * v / (s * s)
+                        } else {
+                            wald(engine, offset, k)
+                        },
+                    });
+                }
+            }
             let e = engine.estimates();
             rows.push(EstimateRow {
                 t: r.t,
@@ -224,7 +297,6 @@ pub fn run_generic<T: Real>(
     let p = engine.filter().covariance();
     let idx = [BG, BG + 1, BG + 2, BA, BA + 1, BA + 2, MU, MU + 1, MU + 2];
     let final_cov9 = SMatrix::<f64, 9, 9>::from_fn(|i, j| p[(idx[i], idx[j])].to_f64());
-    debug_assert_eq!(p.nrows(), N);
     Ok(CalibResult {
         rows,
         innovations,
@@ -233,17 +305,30 @@ pub fn run_generic<T: Real>(
         covariance: cov,
         final_cov9,
         precision,
+        effect_rows,
     })
 }
 
-/// Calibrates a recording in the requested precision.
+/// Calibrates a recording in the requested precision, with the smallest engine whose
+/// state holds the configuration's layout (the declared model runs at 21 states).
 pub fn run(
     rec: &Recording,
     cfg: &CalibConfig,
     precision: Precision,
 ) -> Result<CalibResult, String> {
-    match precision {
-        Precision::F64 => run_generic::<f64>(rec, cfg, precision),
-        Precision::F32 => run_generic::<f32>(rec, cfg, precision),
+    let dim = cfg.augmentation::<f64>()?.dimension();
+    macro_rules! dispatch {
+        ($($s:literal),*) => {
+            $(if dim <= $s {
+                return match precision {
+                    Precision::F64 => run_generic::<f64, $s>(rec, cfg, precision),
+                    Precision::F32 => run_generic::<f32, $s>(rec, cfg, precision),
+                };
+            })*
+        };
     }
+    dispatch!(21, 24, 27, 30, 36, 48);
+    Err(format!(
+        "a layout of {dim} states is larger than the largest engine (48)"
+    ))
 }

@@ -459,6 +459,7 @@ pub fn result_from_board(run: &QemuRun) -> Result<CalibResult, String> {
         covariance: CovarianceCheck::default(),
         final_cov9,
         precision: Precision::F32,
+        effect_rows: Vec::new(),
     })
 }
 

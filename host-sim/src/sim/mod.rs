@@ -5,6 +5,11 @@
 //! Truth is built from closed-form kinematics on a fine grid (`SUBSTEPS` per IMU
 //! interval), then integrated into increments, so the slave's strapdown sees what a
 //! real IMU would: the angular-rate and specific-force integrals, not samples.
+//!
+//! Effects the filter's model does not declare (scale factors, non-orthogonality,
+//! g-sensitivity, master delay, lever-arm error, master velocity wave) are injected
+//! here when the scenario asks for them, and their values are written to `truth.csv`
+//! as constant columns, so a diagnosis can be scored against them.
 
 pub mod flexure;
 pub mod motion;
@@ -18,7 +23,8 @@ use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
-pub use scenario::{Bending, FlexureSpec, Scenario};
+pub use scenario::{Bending, FlexureSpec, Scenario, Undeclared, VelocityWave};
+use std::f64::consts::PI;
 
 /// Fine sub-steps per IMU interval for the truth integrals.
 pub const SUBSTEPS: usize = 10;
@@ -26,6 +32,8 @@ pub const SUBSTEPS: usize = 10;
 pub const MG: f64 = 9.806_65e-3;
 /// One degree per hour (rad/s).
 pub const DEG_PER_H: f64 = std::f64::consts::PI / 180.0 / 3600.0;
+/// Standard gravity g (m/s²), the unit of the gyro g-sensitivity (deg/h per g).
+pub const STANDARD_GRAVITY_MPS2: f64 = 9.806_65;
 
 impl Bending {
     /// The core's bending model.
@@ -53,9 +61,10 @@ pub struct SlaveTruth {
 pub struct Fixed {
     /// Mounting misalignment μ (rad).
     pub mu: Vector3<f64>,
-    /// Static lever arm r0, master body (m).
+    /// True static lever arm r0, master body (m): the surveyed arm plus the scenario's
+    /// `undeclared.lever_arm_error_m`.
     pub r0: Vector3<f64>,
-    /// Bending matrix R of r = r0 + Rθ (m/rad).
+    /// Bending matrix R of r = r0 + Rθ, from the true r0 (m/rad).
     pub r_bend: Matrix3<f64>,
     /// Master velocity, ENU (m/s).
     pub v_m: Vector3<f64>,
@@ -94,11 +103,84 @@ pub struct SimOutput {
     pub recording: Recording,
 }
 
+/// The slave IMU's deterministic errors in SI units.
+struct ImuErrors {
+    /// Gyro bias (rad/s).
+    bg: Vector3<f64>,
+    /// Accelerometer bias (m/s²).
+    ba: Vector3<f64>,
+    /// Gyro scale factors (dimensionless).
+    sg: Vector3<f64>,
+    /// Accelerometer scale factors (dimensionless).
+    sa: Vector3<f64>,
+    /// Gyro non-orthogonality `[xy, xz, yz]` (rad).
+    ng: [f64; 3],
+    /// Accelerometer non-orthogonality `[xy, xz, yz]` (rad).
+    na: [f64; 3],
+    /// Gyro g-sensitivity `G_si` (rad/s per m/s²).
+    g_si: Matrix3<f64>,
+}
+
+/// The symmetric non-orthogonality matrix of `[xy, xz, yz]`.
+fn nonorthogonality([xy, xz, yz]: [f64; 3]) -> Matrix3<f64> {
+    Matrix3::new(0.0, xy, xz, xy, 0.0, yz, xz, yz, 0.0)
+}
+
+impl ImuErrors {
+    fn new(imu: &scenario::ImuSpec) -> Self {
+        Self {
+            bg: Vector3::from(imu.gyro_bias_deg_h) * DEG_PER_H,
+            ba: Vector3::from(imu.accel_bias_mg) * MG,
+            sg: Vector3::from(imu.gyro_scale_ppm) * 1e-6,
+            sa: Vector3::from(imu.accel_scale_ppm) * 1e-6,
+            ng: imu.gyro_nonorthogonality_urad.map(|v| v * 1e-6),
+            na: imu.accel_nonorthogonality_urad.map(|v| v * 1e-6),
+            g_si: Matrix3::from_row_slice(&imu.gyro_g_sensitivity_deg_h_per_g)
+                * (DEG_PER_H / STANDARD_GRAVITY_MPS2),
+        }
+    }
+
+    /// `I + S_g + N_g`: what the gyro makes of a true angle increment.
+    fn gyro_matrix(&self) -> Matrix3<f64> {
+        Matrix3::identity() + Matrix3::from_diagonal(&self.sg) + nonorthogonality(self.ng)
+    }
+
+    /// `I + S_a + N_a`: what the accelerometer makes of a true velocity increment.
+    fn accel_matrix(&self) -> Matrix3<f64> {
+        Matrix3::identity() + Matrix3::from_diagonal(&self.sa) + nonorthogonality(self.na)
+    }
+}
+
+/// The truth columns that are constant in time, by name: the slave IMU's scale
+/// factors (`sg*`, `sa*`), non-orthogonality (`ng*`, `na*`, rad), gyro g-sensitivity
+/// (`gs11`..`gs33` row by row, rad/s per m/s²), the master delay (`tau`, s) and the
+/// lever-arm error (`dr*`, m, master body).
+fn constant_truth(e: &ImuErrors, und: &Undeclared) -> Vec<(&'static str, f64)> {
+    const GS: [&str; 9] = [
+        "gs11", "gs12", "gs13", "gs21", "gs22", "gs23", "gs31", "gs32", "gs33",
+    ];
+    let vec3 = |names: [&'static str; 3], v: [f64; 3]| names.into_iter().zip(v);
+    vec3(["sgx", "sgy", "sgz"], e.sg.into())
+        .chain(vec3(["sax", "say", "saz"], e.sa.into()))
+        .chain(vec3(["ngxy", "ngxz", "ngyz"], e.ng))
+        .chain(vec3(["naxy", "naxz", "nayz"], e.na))
+        // nalgebra stores column by column: transpose to read G row by row.
+        .chain(GS.into_iter().zip(e.g_si.transpose().iter().copied()))
+        .chain([("tau", und.master_delay_s)])
+        .chain(vec3(["drx", "dry", "drz"], und.lever_arm_error_m))
+        .collect()
+}
+
 fn gauss3(rng: &mut impl Rng, sigma: f64) -> Vector3<f64> {
     Vector3::from_fn(|_, _| sigma * rng.sample::<f64, _>(StandardNormal))
 }
 
 /// Runs the scenario with a seed.
+///
+/// With `undeclared.master_delay_s` = τ > 0 the master message stamped `t` is the
+/// master truth at `t − τ`, from the closed-form motion (attitude, rate), the
+/// constant velocity, and the position at `t` moved back by `v τ`. The first messages,
+/// whose `t − τ` is negative, are emitted too: the motion is defined for all times.
 pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let imu_dt = 1.0 / sc.slave_imu.rate_hz;
@@ -107,7 +189,8 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
     let imu_per_master = (sc.slave_imu.rate_hz / sc.master.rate_hz).round() as usize;
     let substeps = n_imu * SUBSTEPS;
     let flex = flexure::FlexureTruth::generate(&sc.flexure, substeps, h, &mut rng);
-    let r0 = Vector3::from(sc.lever_arm.r0_m);
+    let und = &sc.undeclared;
+    let r0 = Vector3::from(sc.lever_arm.r0_m) + Vector3::from(und.lever_arm_error_m);
     let fx = Fixed {
         mu: Vector3::from(sc.misalignment_deg).map(f64::to_radians),
         r0,
@@ -115,14 +198,10 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
         v_m: sc.motion.velocity_n(),
     };
     let imu = &sc.slave_imu;
-    let bg = Vector3::from(imu.gyro_bias_deg_h) * DEG_PER_H;
-    let ba = Vector3::from(imu.accel_bias_mg) * MG;
-    let sg = Matrix3::from_diagonal(&Vector3::from(imu.gyro_scale_ppm)) * 1e-6;
-    let sa = Matrix3::from_diagonal(&Vector3::from(imu.accel_scale_ppm)) * 1e-6;
-    let [nxy, nxz, nyz] = imu.gyro_nonorthogonality_urad.map(|v| v * 1e-6);
-    let ng = Matrix3::new(0.0, nxy, nxz, nxy, 0.0, nyz, nxz, nyz, 0.0);
-    let gyro_err = Matrix3::identity() + sg + ng;
-    let accel_err = Matrix3::identity() + sa;
+    let err = ImuErrors::new(imu);
+    let (bg, ba) = (err.bg, err.ba);
+    let gyro_err = err.gyro_matrix();
+    let accel_err = err.accel_matrix();
     let arw = imu.gyro_arw_deg_rh.to_radians() / 60.0; // rad/√s
     let vrw = imu.accel_vrw_mps_rh / 60.0; // m/s/√s
 
@@ -133,12 +212,13 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
     };
     let mut imu_out = Vec::with_capacity(n_imu);
     let mut master_out = Vec::with_capacity(n_imu / imu_per_master + 1);
-    let truth_names = [
+    // Truth columns that vary in time; the constant ones are appended at the end.
+    let varying_names = [
         "bgx", "bgy", "bgz", "bax", "bay", "baz", "mux", "muy", "muz", "thx", "thy", "thz", "thdx",
         "thdy", "thdz",
     ];
     let mut truth_t = Vec::new();
-    let mut truth_cols: Vec<Vec<f64>> = vec![Vec::new(); truth_names.len()];
+    let mut truth_cols: Vec<Vec<f64>> = vec![Vec::new(); varying_names.len()];
 
     let boundary = |s: usize, pos_m: &Position<f64>| {
         let t = s as f64 * h;
@@ -147,18 +227,24 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
         (m, th, thd, slave_truth(&fx, &m, pos_m, &th, &thd))
     };
     let (_, _, _, mut prev) = boundary(0, &pos_m);
+    let tau = und.master_delay_s;
+    // The message stamped `t`, from the master's truth at `t − τ` (`pos_t`: at `t`).
     let mut emit_master = |t: f64,
-                           m: &motion::MasterAttitude,
-                           pos: &Position<f64>,
+                           pos_t: &Position<f64>,
                            th: &Vector3<f64>,
                            thd: &Vector3<f64>,
                            rng: &mut ChaCha8Rng| {
+        let m = sc.motion.attitude(t - tau);
+        let pos = earth::offset_position(pos_t, &(-fx.v_m * tau));
         let w_ie = earth::earth_rate_n(pos.lat_rad);
-        let w_en = earth::transport_rate_n(pos, &fx.v_m);
+        let w_en = earth::transport_rate_n(&pos, &fx.v_m);
         let w_ib_bm = m.w_nb_bm + m.c_bm_n.transpose() * (w_ie + w_en);
         let q = UnitQuaternion::from_matrix(&m.c_bm_n)
             * quat_exp(&gauss3(rng, sc.master.attitude_noise_deg.to_radians()));
-        let v = fx.v_m + gauss3(rng, sc.master.velocity_noise_mps);
+        let mut v = fx.v_m + gauss3(rng, sc.master.velocity_noise_mps);
+        if let Some(wave) = &und.master_velocity_wave {
+            v += Vector3::from(wave.amplitude_mps) * (2.0 * PI * t / wave.period_s).sin();
+        }
         let w = w_ib_bm + gauss3(rng, sc.master.rate_noise_deg_h * DEG_PER_H);
         master_out.push(MasterMsg {
             t,
@@ -178,9 +264,8 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
         }
     };
     {
-        let m0 = sc.motion.attitude(0.0);
         let (th, thd) = flex.at_boundary(0);
-        emit_master(0.0, &m0, &pos_m, &th, &thd, &mut rng);
+        emit_master(0.0, &pos_m, &th, &thd, &mut rng);
     }
     for i in 1..=n_imu {
         let mut dth = Vector3::zeros();
@@ -207,7 +292,9 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
             prev = next;
         }
         let t = i as f64 * imu_dt;
-        let dth_meas = gyro_err * dth + bg * imu_dt + gauss3(&mut rng, arw * imu_dt.sqrt());
+        // The g-sensitivity adds G_si ∫ f dt: the true Δv, before the accelerometer's errors.
+        let dth_meas =
+            gyro_err * dth + err.g_si * dv + bg * imu_dt + gauss3(&mut rng, arw * imu_dt.sqrt());
         let dv_meas = accel_err * dv + ba * imu_dt + gauss3(&mut rng, vrw * imu_dt.sqrt());
         imu_out.push(ImuSample {
             t,
@@ -216,10 +303,15 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
         });
         if i % imu_per_master == 0 {
             let s = i * SUBSTEPS;
-            let m = sc.motion.attitude(t);
             let (th, thd) = flex.at_boundary(s);
-            emit_master(t, &m, &pos_m, &th, &thd, &mut rng);
+            emit_master(t, &pos_m, &th, &thd, &mut rng);
         }
+    }
+    let rows = truth_t.len();
+    let mut truth_names: Vec<String> = varying_names.iter().map(|s| s.to_string()).collect();
+    for (name, value) in constant_truth(&err, und) {
+        truth_names.push(name.to_string());
+        truth_cols.push(vec![value; rows]);
     }
     let recording = Recording {
         meta: RecordingMeta {
@@ -228,6 +320,7 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
                 lon_deg: sc.site.lon_deg,
                 height_m: sc.site.height_m,
             },
+            // As surveyed: the truth's arm differs by `undeclared.lever_arm_error_m`.
             lever_arm_m: sc.lever_arm.r0_m,
             slave_rate_hz: sc.slave_imu.rate_hz,
             slave_output: ImuOutput::Increments,
@@ -241,7 +334,7 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
         imu: imu_out,
         master: master_out,
         truth: Some(Truth {
-            names: truth_names.iter().map(|s| s.to_string()).collect(),
+            names: truth_names,
             t: truth_t,
             columns: truth_cols,
         }),

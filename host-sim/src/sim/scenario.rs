@@ -4,6 +4,11 @@
 //! `moored` (plausible flexure; only the errors the 21-state model declares) and
 //! `matched` (like `moored`, but the flexure truth *is* the filter's AR(2) model, so
 //! the filter's model matches the truth exactly: the Monte Carlo consistency case).
+//!
+//! Effects the filter's 21-state model does not contain, for testing the diagnosis
+//! of a misfit, are opt-in: the slave IMU's scale factors, non-orthogonality and
+//! g-sensitivity (`[slave_imu]`), and the master's output delay, a wrong surveyed
+//! lever arm and a velocity wave (`[undeclared]`). All default to zero (absent).
 
 use serde::{Deserialize, Serialize};
 
@@ -29,6 +34,10 @@ pub struct Scenario {
     pub slave_imu: ImuSpec,
     /// Master INS output.
     pub master: MasterSpec,
+    /// Effects outside the slave IMU that the filter's model does not declare.
+    /// Absent: none.
+    #[serde(default)]
+    pub undeclared: Undeclared,
 }
 
 /// Site of the master at the start.
@@ -132,9 +141,21 @@ pub struct ImuSpec {
     /// Accelerometer scale factor error (ppm).
     #[serde(default)]
     pub accel_scale_ppm: [f64; 3],
-    /// Gyro axis non-orthogonality: `[xy, xz, yz]` small angles (µrad), symmetric.
+    /// Gyro axis non-orthogonality: `[xy, xz, yz]` small angles (µrad), symmetric:
+    /// the gyro measures `(I + S_g + N_g) ω` with
+    /// `N_g = [[0, xy, xz], [xy, 0, yz], [xz, yz, 0]] · 1e-6`.
     #[serde(default)]
     pub gyro_nonorthogonality_urad: [f64; 3],
+    /// Accelerometer axis non-orthogonality: `[xy, xz, yz]` small angles (µrad),
+    /// symmetric, the gyro's convention: the accelerometer measures `(I + S_a + N_a) f`
+    /// with `N_a = [[0, xy, xz], [xy, 0, yz], [xz, yz, 0]] · 1e-6`.
+    #[serde(default)]
+    pub accel_nonorthogonality_urad: [f64; 3],
+    /// Gyro g-sensitivity `G`, a 3×3 matrix row by row (deg/h per g,
+    /// g = 9.80665 m/s²): the gyro measures `ω + G f` in addition to its other errors,
+    /// `f` the true specific force in the slave body frame.
+    #[serde(default)]
+    pub gyro_g_sensitivity_deg_h_per_g: [f64; 9],
     /// Gyro angle random walk (deg/√h).
     pub gyro_arw_deg_rh: f64,
     /// Accelerometer velocity random walk (m/s/√h).
@@ -155,6 +176,34 @@ pub struct MasterSpec {
     pub attitude_noise_deg: f64,
     /// White noise on the angular rate (deg/h, per axis).
     pub rate_noise_deg_h: f64,
+}
+
+/// Effects outside the slave IMU that the filter's 21-state model has no state for
+/// (`[undeclared]` in a scenario file). The default is none of them.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct Undeclared {
+    /// Delay τ of the master's output (s, in [0, 1]): the message stamped `t` carries
+    /// the attitude, velocity, position and angular rate that were true at `t − τ`
+    /// (then the noise, as without delay). The slave IMU and all stamps are unchanged.
+    pub master_delay_s: f64,
+    /// Error of the surveyed lever arm, master body frame (m): the true static arm is
+    /// `lever_arm.r0_m + lever_arm_error_m`, and the truth (slave velocity, position,
+    /// bending matrix R) uses it, while the recording still declares `lever_arm.r0_m`.
+    pub lever_arm_error_m: [f64; 3],
+    /// A sinusoid added to the master's output velocity, if any.
+    pub master_velocity_wave: Option<VelocityWave>,
+}
+
+/// A sinusoidal error of the master's output velocity: the message stamped `t` gets
+/// `amplitude_mps · sin(2π t / period_s)` added (ENU).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct VelocityWave {
+    /// Amplitude per ENU axis (m/s).
+    pub amplitude_mps: [f64; 3],
+    /// Period (s).
+    pub period_s: f64,
 }
 
 const PAPER: &str = include_str!("../../../scenarios/paper.toml");
@@ -214,6 +263,37 @@ impl Scenario {
             if !(period_s > 0.0 && (k - k.round()).abs() < 1e-9 && k >= 1.0) {
                 return Err(format!(
                     "`flexure.period_s` ({period_s}) must be a positive multiple of the IMU period"
+                ));
+            }
+        }
+        self.undeclared.validate()
+    }
+}
+
+impl Undeclared {
+    /// Checks values a simulation cannot run with; errors name the key.
+    fn validate(&self) -> Result<(), String> {
+        let tau = self.master_delay_s;
+        if !(tau.is_finite() && (0.0..=1.0).contains(&tau)) {
+            return Err(format!(
+                "`undeclared.master_delay_s` must be a number in [0, 1] s, got {tau}"
+            ));
+        }
+        if let Some(v) = self.lever_arm_error_m.iter().find(|v| !v.is_finite()) {
+            return Err(format!(
+                "`undeclared.lever_arm_error_m` must be finite numbers, got {v}"
+            ));
+        }
+        if let Some(wave) = &self.master_velocity_wave {
+            let period = wave.period_s;
+            if !(period.is_finite() && period > 0.0) {
+                return Err(format!(
+                    "`undeclared.master_velocity_wave.period_s` must be a positive number, got {period}"
+                ));
+            }
+            if let Some(v) = wave.amplitude_mps.iter().find(|v| !v.is_finite()) {
+                return Err(format!(
+                    "`undeclared.master_velocity_wave.amplitude_mps` must be finite numbers, got {v}"
                 ));
             }
         }

@@ -1,0 +1,435 @@
+//! Candidate effects the declared 21-state model lacks, each a block of states the
+//! filter can carry after the declared ones. The diagnosis adds the block of an effect
+//! it finds in the residuals; the board runs the same layout from its configuration.
+//!
+//! Every block is a constant (no process noise) and stays in the filter's state: it is
+//! not fed back into the nominal solution, so its estimate and σ are read from the
+//! filter at any time. Conventions (the simulator injects the effects the same way):
+//!
+//! | effect | states | meaning | enters |
+//! |---|---|---|---|
+//! | `gyro_scale_factor` | `s_g` (3, –) | gyro measures `(I + diag s_g) ω` | ψ̇ += diag(ω) s_g |
+//! | `gyro_misalignment` | `n_g = [xy, xz, yz]` (rad) | gyro measures `(I + N_g) ω`, `N_g` symmetric, zero diagonal | ψ̇ += N_g ω |
+//! | `accel_scale_factor` | `s_a` (3, –) | accelerometer measures `(I + diag s_a) f` | δv̇ += C diag(f) s_a |
+//! | `accel_misalignment` | `n_a` (rad) | as the gyro's, on `f` | δv̇ += C N_a f |
+//! | `time_delay` | `τ` (1, s) | the master message stamped `t` is the master at `t − τ` | z_v += v̇ τ, z_a += ω_nb τ, z_ω += ω̇ τ |
+//! | `lever_arm_error` | `δr` (3, m, master body) | the true arm is `r0 + δr` | z_v += C_bm^n [ω_eb×] δr |
+//! | `gyro_g_sensitivity` | `G` (9, rad/s per m/s², row-major) | gyro measures `ω + G f` | ψ̇ += G f |
+//! | `lever_arm_coupling` | `δR` (9, m/rad, row-major) | the true bending is `R + δR` | z_v += C_bm^n ([ω_eb×] δR θ + δR θ̇) |
+//!
+//! `docs/diagnosis.md` derives each column; `core/tests/linearization_f.rs` and
+//! `host-sim/tests/linearization_aug.rs` check them against the nonlinear models.
+
+use crate::model::N;
+use crate::real::Real;
+use crate::rotation::skew;
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+
+/// Most effects one layout carries at a time.
+pub const MAX_EFFECTS: usize = 4;
+
+/// A candidate effect: its name is the vocabulary of `diagnosis.json`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Effect {
+    /// Gyro scale factor errors, per axis (dimensionless).
+    GyroScaleFactor,
+    /// Gyro axis non-orthogonality `[xy, xz, yz]` (rad).
+    GyroMisalignment,
+    /// Accelerometer scale factor errors, per axis (dimensionless).
+    AccelScaleFactor,
+    /// Accelerometer axis non-orthogonality `[xy, xz, yz]` (rad).
+    AccelMisalignment,
+    /// Master/slave time delay: the master is late by τ (s).
+    TimeDelay,
+    /// Error of the declared static lever arm, master body frame (m).
+    LeverArmError,
+    /// Gyro g-sensitivity matrix (rad/s per m/s², row-major).
+    GyroGSensitivity,
+    /// Error of the bending matrix R of `r = r0 + R θ` (m/rad, row-major).
+    LeverArmCoupling,
+}
+
+impl Effect {
+    /// Every candidate, in the order the diagnosis tries them.
+    pub const ALL: [Effect; 8] = [
+        Effect::GyroScaleFactor,
+        Effect::GyroMisalignment,
+        Effect::AccelScaleFactor,
+        Effect::AccelMisalignment,
+        Effect::TimeDelay,
+        Effect::LeverArmError,
+        Effect::GyroGSensitivity,
+        Effect::LeverArmCoupling,
+    ];
+
+    /// Number of states of the block.
+    pub const fn states(self) -> usize {
+        match self {
+            Effect::TimeDelay => 1,
+            Effect::GyroGSensitivity | Effect::LeverArmCoupling => 9,
+            _ => 3,
+        }
+    }
+
+    /// The name in `diagnosis.json` and in configuration files.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Effect::GyroScaleFactor => "gyro_scale_factor",
+            Effect::GyroMisalignment => "gyro_misalignment",
+            Effect::AccelScaleFactor => "accel_scale_factor",
+            Effect::AccelMisalignment => "accel_misalignment",
+            Effect::TimeDelay => "time_delay",
+            Effect::LeverArmError => "lever_arm_error",
+            Effect::GyroGSensitivity => "gyro_g_sensitivity",
+            Effect::LeverArmCoupling => "lever_arm_coupling",
+        }
+    }
+
+    /// SI unit of the block's states.
+    pub const fn unit(self) -> &'static str {
+        match self {
+            Effect::GyroScaleFactor | Effect::AccelScaleFactor => "1",
+            Effect::GyroMisalignment | Effect::AccelMisalignment => "rad",
+            Effect::TimeDelay => "s",
+            Effect::LeverArmError => "m",
+            Effect::GyroGSensitivity => "rad/s/(m/s^2)",
+            Effect::LeverArmCoupling => "m/rad",
+        }
+    }
+
+    /// The effect of a name, if it is one of the vocabulary.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.iter().copied().find(|e| e.name() == name)
+    }
+
+    /// Wire code of the effect (link Config message); `from_code` inverts it.
+    pub const fn code(self) -> u8 {
+        match self {
+            Effect::GyroScaleFactor => 1,
+            Effect::GyroMisalignment => 2,
+            Effect::AccelScaleFactor => 3,
+            Effect::AccelMisalignment => 4,
+            Effect::TimeDelay => 5,
+            Effect::LeverArmError => 6,
+            Effect::GyroGSensitivity => 7,
+            Effect::LeverArmCoupling => 8,
+        }
+    }
+
+    /// The effect of a wire code.
+    pub fn from_code(code: u8) -> Option<Self> {
+        Self::ALL.iter().copied().find(|e| e.code() == code)
+    }
+
+    /// A prior σ wide enough for any plausible sensor or installation (SI): 1000 ppm,
+    /// 1 mrad, 0.2 s, 2 m, 100 °/h per g, 100 m/rad. The filter's evidence for an effect
+    /// is its estimate against its posterior σ, which a wide prior leaves to the data.
+    pub fn default_prior_sigma(self) -> f64 {
+        match self {
+            Effect::GyroScaleFactor | Effect::AccelScaleFactor => 1e-3,
+            Effect::GyroMisalignment | Effect::AccelMisalignment => 1e-3,
+            Effect::TimeDelay => 0.2,
+            Effect::LeverArmError => 2.0,
+            Effect::GyroGSensitivity => 100.0 * (core::f64::consts::PI / 180.0 / 3600.0) / 9.806_65,
+            Effect::LeverArmCoupling => 100.0,
+        }
+    }
+}
+
+/// One effect's block in a layout.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Block<T> {
+    /// The effect.
+    pub effect: Effect,
+    /// Index of its first state.
+    pub offset: usize,
+    /// Prior σ of each of its states (SI unit of the effect).
+    pub prior_sigma: T,
+}
+
+/// Why a layout could not be built.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AugmentError {
+    /// The effect is already in the layout.
+    Duplicate,
+    /// The layout carries `MAX_EFFECTS` effects already.
+    Full,
+    /// The prior σ is not a positive finite number.
+    BadPrior,
+}
+
+/// The effects appended to the declared 21 states, in order: the layout of the state
+/// vector from index `N` on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Augmentation<T> {
+    blocks: [Option<Block<T>>; MAX_EFFECTS],
+}
+
+impl<T: Real> Default for Augmentation<T> {
+    fn default() -> Self {
+        Self::none()
+    }
+}
+
+impl<T: Real> Augmentation<T> {
+    /// The declared model alone.
+    pub const fn none() -> Self {
+        Self {
+            blocks: [None; MAX_EFFECTS],
+        }
+    }
+
+    /// This layout with `effect` appended, its states starting after the last block's.
+    pub fn with(mut self, effect: Effect, prior_sigma: T) -> Result<Self, AugmentError> {
+        if !(prior_sigma > T::zero() && prior_sigma.is_finite()) {
+            return Err(AugmentError::BadPrior);
+        }
+        if self.offset(effect).is_some() {
+            return Err(AugmentError::Duplicate);
+        }
+        let offset = N + self.states();
+        let slot = self
+            .blocks
+            .iter_mut()
+            .find(|b| b.is_none())
+            .ok_or(AugmentError::Full)?;
+        *slot = Some(Block {
+            effect,
+            offset,
+            prior_sigma,
+        });
+        Ok(self)
+    }
+
+    /// The blocks, in state order.
+    pub fn blocks(&self) -> impl Iterator<Item = &Block<T>> {
+        self.blocks.iter().flatten()
+    }
+
+    /// Whether no effect is added.
+    pub fn is_empty(&self) -> bool {
+        self.blocks().next().is_none()
+    }
+
+    /// Number of added states.
+    pub fn states(&self) -> usize {
+        self.blocks().map(|b| b.effect.states()).sum()
+    }
+
+    /// Dimension of the state vector the layout needs (declared + added).
+    pub fn dimension(&self) -> usize {
+        N + self.states()
+    }
+
+    /// Index of the effect's first state, if the layout carries it.
+    pub fn offset(&self, effect: Effect) -> Option<usize> {
+        self.blocks().find(|b| b.effect == effect).map(|b| b.offset)
+    }
+}
+
+/// Adds `block` (3 rows × `C` columns) into `m` at `(row, col)`; entries outside are skipped.
+fn add_block<T: Real, const S: usize, const C: usize>(
+    m: &mut SMatrix<T, S, S>,
+    row: usize,
+    col: usize,
+    block: &SMatrix<T, 3, C>,
+) {
+    for r in 0..3 {
+        for c in 0..C {
+            if let (Some(e), Some(&v)) = (m.get_mut((row + r, col + c)), block.get((r, c))) {
+                *e += v;
+            }
+        }
+    }
+}
+
+/// `N ω` for the symmetric zero-diagonal `N` of `[xy, xz, yz]`, as a matrix on those three.
+fn nonorthogonality_columns<T: Real>(w: &Vector3<T>) -> Matrix3<T> {
+    let z = T::zero();
+    Matrix3::new(w.y, w.z, z, w.x, z, w.z, z, w.x, w.y)
+}
+
+/// `G f` for a row-major `G`, as a 3×9 matrix on G's entries.
+fn row_major_columns<T: Real>(f: &Vector3<T>) -> SMatrix<T, 3, 9> {
+    let mut m = SMatrix::<T, 3, 9>::zeros();
+    for i in 0..3 {
+        for j in 0..3 {
+            if let (Some(e), Some(&v)) = (m.get_mut((i, 3 * i + j)), f.get(j)) {
+                *e = v;
+            }
+        }
+    }
+    m
+}
+
+/// Adds the augmented blocks' columns to the continuous-time dynamics `f` (S×S):
+/// the rows of δv (at `v_row`) and ψ (at `psi_row`), from the period's mean
+/// specific force `f_b` (m/s², slave body), mean rate `w_ib_b` (rad/s, slave body)
+/// and attitude `c_b_n`.
+pub fn add_dynamics<T: Real, const S: usize>(
+    f: &mut SMatrix<T, S, S>,
+    aug: &Augmentation<T>,
+    rows: (usize, usize),
+    f_b: &Vector3<T>,
+    w_ib_b: &Vector3<T>,
+    c_b_n: &Matrix3<T>,
+) {
+    let (v_row, psi_row) = rows;
+    for b in aug.blocks() {
+        let o = b.offset;
+        match b.effect {
+            Effect::GyroScaleFactor => add_block(f, psi_row, o, &Matrix3::from_diagonal(w_ib_b)),
+            Effect::GyroMisalignment => add_block(f, psi_row, o, &nonorthogonality_columns(w_ib_b)),
+            Effect::AccelScaleFactor => {
+                add_block(f, v_row, o, &(c_b_n * Matrix3::from_diagonal(f_b)))
+            }
+            Effect::AccelMisalignment => {
+                add_block(f, v_row, o, &(c_b_n * nonorthogonality_columns(f_b)))
+            }
+            Effect::GyroGSensitivity => add_block(f, psi_row, o, &row_major_columns(f_b)),
+            Effect::TimeDelay | Effect::LeverArmError | Effect::LeverArmCoupling => {}
+        }
+    }
+}
+
+/// What the measurement columns of the augmented blocks are made of, at one master
+/// message's time of validity.
+#[derive(Clone, Copy, Debug)]
+pub struct Signature<T: Real> {
+    /// Master attitude `C_bm^n`.
+    pub c_bm_n: Matrix3<T>,
+    /// Master body rate relative to the Earth, master body (rad/s).
+    pub w_eb_bm: Vector3<T>,
+    /// Rate of change of the slave velocity, ENU (m/s²).
+    pub v_dot_n: Vector3<T>,
+    /// Slave body rate relative to the navigation frame, slave body (rad/s).
+    pub w_nb_bs: Vector3<T>,
+    /// Rate of change of the slave's angular rate, slave body (rad/s²).
+    pub w_dot_bs: Vector3<T>,
+    /// Slave angular rate ω_ib, bias-corrected, slave body (rad/s).
+    pub w_ib_bs: Vector3<T>,
+    /// Slave specific force, bias-corrected, slave body (m/s²).
+    pub f_bs: Vector3<T>,
+    /// Flexure angle estimate θ̂ (rad) and rate θ̂̇ (rad/s), slave body.
+    pub theta: Vector3<T>,
+    /// See `theta`.
+    pub theta_rate: Vector3<T>,
+}
+
+/// Which matching measurement a row belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Channel {
+    /// Velocity matching (m/s, ENU).
+    Velocity,
+    /// Attitude matching (rad, slave body).
+    Attitude,
+    /// Angular-rate matching (rad/s, slave body).
+    AngularRate,
+}
+
+/// Adds `block` (3 × `C`) to the three rows from column `col` on.
+fn add_columns<T: Real, const S: usize, const C: usize>(
+    rows: &mut [SVector<T, S>; 3],
+    col: usize,
+    block: &SMatrix<T, 3, C>,
+) {
+    for (axis, row) in rows.iter_mut().enumerate() {
+        for k in 0..C {
+            if let (Some(e), Some(&v)) = (row.get_mut(col + k), block.get((axis, k))) {
+                *e += v;
+            }
+        }
+    }
+}
+
+/// Adds the augmented blocks' columns to the three rows of one matching measurement.
+pub fn add_measurement<T: Real, const S: usize>(
+    rows: &mut [SVector<T, S>; 3],
+    aug: &Augmentation<T>,
+    channel: Channel,
+    sig: &Signature<T>,
+) {
+    for b in aug.blocks() {
+        let o = b.offset;
+        match (b.effect, channel) {
+            (Effect::TimeDelay, Channel::Velocity) => add_columns(rows, o, &sig.v_dot_n),
+            (Effect::TimeDelay, Channel::Attitude) => add_columns(rows, o, &sig.w_nb_bs),
+            (Effect::TimeDelay, Channel::AngularRate) => add_columns(rows, o, &sig.w_dot_bs),
+            (Effect::GyroScaleFactor, Channel::AngularRate) => {
+                add_columns(rows, o, &Matrix3::from_diagonal(&sig.w_ib_bs))
+            }
+            (Effect::GyroMisalignment, Channel::AngularRate) => {
+                add_columns(rows, o, &nonorthogonality_columns(&sig.w_ib_bs))
+            }
+            (Effect::GyroGSensitivity, Channel::AngularRate) => {
+                add_columns(rows, o, &row_major_columns(&sig.f_bs))
+            }
+            (Effect::LeverArmError, Channel::Velocity) => {
+                add_columns(rows, o, &(sig.c_bm_n * skew(&sig.w_eb_bm)))
+            }
+            (Effect::LeverArmCoupling, Channel::Velocity) => {
+                // C [ω×] δR θ + C δR θ̇, δR's entries as the unknowns (row-major).
+                let m = sig.c_bm_n * skew(&sig.w_eb_bm) * row_major_columns(&sig.theta)
+                    + sig.c_bm_n * row_major_columns(&sig.theta_rate);
+                add_columns(rows, o, &m);
+            }
+            _ => {}
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn layout_offsets_follow_the_declared_states() {
+        let a = Augmentation::<f64>::none()
+            .with(Effect::TimeDelay, 0.1)
+            .unwrap()
+            .with(Effect::GyroScaleFactor, 1e-3)
+            .unwrap();
+        assert_eq!(a.offset(Effect::TimeDelay), Some(N));
+        assert_eq!(a.offset(Effect::GyroScaleFactor), Some(N + 1));
+        assert_eq!(a.dimension(), N + 4);
+        assert_eq!(
+            a.with(Effect::TimeDelay, 0.1).unwrap_err(),
+            AugmentError::Duplicate
+        );
+        assert_eq!(
+            a.with(Effect::AccelScaleFactor, -1.0).unwrap_err(),
+            AugmentError::BadPrior
+        );
+    }
+
+    #[test]
+    fn a_layout_holds_at_most_max_effects() {
+        let mut a = Augmentation::<f32>::none();
+        for e in Effect::ALL.iter().take(MAX_EFFECTS) {
+            a = a.with(*e, 1.0).unwrap();
+        }
+        assert_eq!(
+            a.with(Effect::LeverArmCoupling, 1.0).unwrap_err(),
+            AugmentError::Full
+        );
+    }
+
+    #[test]
+    fn names_and_codes_round_trip() {
+        for e in Effect::ALL {
+            assert_eq!(Effect::from_name(e.name()), Some(e));
+            assert_eq!(Effect::from_code(e.code()), Some(e));
+        }
+        assert_eq!(Effect::from_name("clock_offset"), None);
+        assert_eq!(Effect::from_code(0), None);
+    }
+
+    #[test]
+    fn nonorthogonality_columns_apply_the_symmetric_matrix() {
+        let w = Vector3::new(0.3, -0.2, 0.7);
+        let n = [1e-3, -2e-3, 4e-3];
+        let m = Matrix3::new(0.0, n[0], n[1], n[0], 0.0, n[2], n[1], n[2], 0.0);
+        let cols = nonorthogonality_columns(&w);
+        assert!((cols * Vector3::from(n) - m * w).norm() < 1e-15);
+    }
+}
