@@ -101,6 +101,10 @@ pub struct EngineConfig<T: Real> {
     pub variance_floor: T,
     /// Effects carried beyond the declared model (states from index 21 on).
     pub augmentation: Augmentation<T>,
+    /// Starting value of the master delay τ̂ (s) when the layout carries `time_delay`
+    /// (e.g. a previous run's estimate: the delay's linearization is then exact from
+    /// the start); ignored otherwise.
+    pub initial_delay_s: f64,
 }
 
 /// One master navigation message.
@@ -269,7 +273,15 @@ pub struct Engine<T: Real, const S: usize = N> {
     /// Nominal master delay τ̂ (s) when the layout carries `time_delay`: a master
     /// message stamped t is matched with the slave at t − τ̂ (closed loop, like the biases).
     delay_s: f64,
+    /// The master's last two angular rates `(t, ω_ib^bm)` (for the delay's rate column).
+    past_master_rates: Deque<(f64, Vector3<T>), RATE_HISTORY>,
 }
+
+/// The delay estimate is fed back once its σ is below this (s).
+pub const DELAY_FEEDBACK_SIGMA_S: f64 = 1e-3;
+
+/// Master angular rates kept for the slope that forms the delay's rate column.
+pub const RATE_HISTORY: usize = 64;
 
 /// Largest master delay the engine follows (s): within the alignment buffer's reach.
 pub const MAX_DELAY_S: f64 = 0.25;
@@ -284,6 +296,9 @@ impl<T: Real, const S: usize> Engine<T, S> {
         let flex_ok = (cfg.flexure.period_s.to_f64() - cfg.filter_period_s).abs()
             <= 1e-6 * cfg.filter_period_s;
         if !(period_ok && flex_ok && cfg.gate_sigma > T::zero()) {
+            return Err(EngineError::BadConfig);
+        }
+        if !(cfg.initial_delay_s.abs() <= MAX_DELAY_S) {
             return Err(EngineError::BadConfig);
         }
         if cfg.augmentation.dimension() > S || S < N {
@@ -306,7 +321,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
             last_update_t: 0.0,
             counters: Counters::default(),
             gated_streaks: [0; 3],
-            delay_s: 0.0,
+            delay_s: cfg.initial_delay_s,
+            past_master_rates: Deque::new(),
             cfg,
         })
     }
@@ -649,6 +665,12 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 t: msg.t,
                 q_bm_n: msg.q_bm_n,
             });
+            if let Some(w) = msg.w_ib_bm {
+                if self.past_master_rates.is_full() {
+                    let _ = self.past_master_rates.pop_front();
+                }
+                let _ = self.past_master_rates.push_back((msg.t, w));
+            }
         }
     }
 
@@ -744,6 +766,42 @@ impl<T: Real, const S: usize> Engine<T, S> {
         }
     }
 
+    /// The master's angular acceleration at its newest kept rate (rad/s², master body):
+    /// the derivative there of a least-squares parabola through the kept rates (a
+    /// straight line's slope would belong to the window's middle, `RATE_HISTORY / 2`
+    /// periods late). Zero until `RATE_HISTORY` rates spanning no gap are kept.
+    fn master_rate_slope(&self) -> Vector3<T> {
+        let rates = &self.past_master_rates;
+        let n = rates.len();
+        let (Some(&(t0, _)), Some(&(t1, _))) = (rates.front(), rates.back()) else {
+            return Vector3::zeros();
+        };
+        let span_ok = t1 - t0 <= 1.5 * n.saturating_sub(1) as f64 * self.cfg.filter_period_s;
+        if n < RATE_HISTORY || !span_ok || t1 <= t0 {
+            return Vector3::zeros();
+        }
+        // Normal equations of w = a + b u + c u², u = t − t̄ (f64 sums, per-axis right sides).
+        let t_mean = rates.iter().map(|r| r.0).sum::<f64>() / n as f64;
+        let mut m = nalgebra::Matrix3::<f64>::zeros();
+        let mut rhs = nalgebra::Matrix3::<f64>::zeros();
+        for &(t, w) in rates.iter() {
+            let u = t - t_mean;
+            let basis = nalgebra::Vector3::new(1.0, u, u * u);
+            m += basis * basis.transpose();
+            let w64 = nalgebra::Vector3::new(w.x.to_f64(), w.y.to_f64(), w.z.to_f64());
+            rhs += basis * w64.transpose();
+        }
+        let Some(inv) = m.try_inverse() else {
+            return Vector3::zeros();
+        };
+        // Rows of `coef`: a, b, c; columns: axes.
+        let coef = inv * rhs;
+        let u_end = t1 - t_mean;
+        Vector3::from_fn(|axis, _| {
+            T::of(mat::get(&coef, 1, axis) + 2.0 * u_end * mat::get(&coef, 2, axis))
+        })
+    }
+
     /// The columns' ingredients of the augmented blocks at slave time `t_s`.
     fn signature(
         &self,
@@ -757,13 +815,13 @@ impl<T: Real, const S: usize> Engine<T, S> {
         let rate = self.buffer.rate_at(t_s).ok();
         let w_ib_bs = rate.map_or(Vector3::zeros(), |r| r.raw_b - self.gyro_bias);
         let f_bs = rate.map_or(Vector3::zeros(), |r| r.f_raw_b - self.accel_bias);
-        // The slave's angular acceleration over the last filter period (its error only
-        // scales the delay's *error* in the closed loop, so a backward difference will do).
-        let d = self.cfg.filter_period_s;
-        let w_dot_bs = match (rate, self.buffer.rate_at(t_s - d)) {
-            (Some(a), Ok(b)) => (a.raw_b - b.raw_b) / T::of(d),
-            _ => Vector3::zeros(),
-        };
+        // The master's angular acceleration from its previous `RATE_HISTORY` rates, in
+        // the slave body. The master's rate is what a delay shifts; the slave's own rate
+        // would add the flexure's acceleration, which the delay does not move, and the
+        // current message's rate would put its noise into the column of its own
+        // innovation. Noise in this column biases the delay even from past messages (the
+        // flexure states carry their noise too), hence a long window.
+        let w_dot_bs = exp_so3(&self.misalignment).transpose() * self.master_rate_slope();
         let w_ie = earth::earth_rate_n(msg.pos.lat_rad);
         let w_en = earth::transport_rate_n(&msg.pos, &slave.v_n);
         // v̇ = C f + g − (2ω_ie + ω_en) × v, from the sensed force (not from differences
@@ -903,6 +961,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         self.buffer.clear();
         self.epoch = None;
         self.gated_streaks = [0; 3];
+        self.past_master_rates.clear();
         self.counters.resets += 1;
     }
 
@@ -923,7 +982,11 @@ impl<T: Real, const S: usize> Engine<T, S> {
         }
         self.buffer.correct_since(t, &dv, &psi);
         self.kf.reset_states(V..TH);
-        if let Some(o) = self.cfg.augmentation.offset(Effect::TimeDelay) {
+        // The delay is fed back only once it is known to a fraction of a filter period:
+        // early on, its estimate also carries the start's velocity and attitude errors,
+        // and moving the matching time by such a guess corrupts the flexure states.
+        let delay = self.cfg.augmentation.offset(Effect::TimeDelay);
+        if let Some(o) = delay.filter(|&o| self.kf.sigma(o).to_f64() < DELAY_FEEDBACK_SIGMA_S) {
             let tau = self.delay_s + vget(&x, o).to_f64();
             self.delay_s = tau.clamp(-MAX_DELAY_S, MAX_DELAY_S);
             self.kf.reset_states(o..o + 1);

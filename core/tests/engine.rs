@@ -62,6 +62,7 @@ fn config() -> EngineConfig<f64> {
         gate_sigma: 5.0,
         variance_floor: 1e-9,
         augmentation: flexcal_core::augment::Augmentation::none(),
+        initial_delay_s: 0.0,
     }
 }
 

@@ -418,6 +418,7 @@ mod tests {
             gate_sigma: 5.0,
             variance_floor: 1e-9,
             augmentation: flexcal_core::augment::Augmentation::none(),
+            initial_delay_s: 0.0,
         };
         ConfigMsg::from_engine(&cfg, estimates_every, status_every)
     }

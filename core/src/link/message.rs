@@ -407,6 +407,7 @@ impl ConfigMsg {
             gate_sigma: c(self.gate_sigma),
             variance_floor: c(self.variance_floor),
             augmentation: crate::augment::Augmentation::none(),
+            initial_delay_s: 0.0,
         }
     }
 

@@ -65,6 +65,9 @@ pub struct CalibConfig {
     /// Effects the filter carries beyond the declared 21 states, by their names in
     /// `diagnosis.json` (e.g. `["time_delay"]`): what `flexcal diagnose` recommends.
     pub effects: Vec<String>,
+    /// Starting value of the master delay (s) when `effects` has `time_delay`: a
+    /// previous estimate, so the delay's linearization holds from the start.
+    pub initial_delay_s: f64,
 }
 
 impl Default for CalibConfig {
@@ -102,6 +105,7 @@ impl CalibConfig {
             initial_flexure_rad: 1e-3,
             gate_sigma: 5.0,
             effects: Vec::new(),
+            initial_delay_s: 0.0,
         }
     }
 
@@ -193,6 +197,13 @@ impl CalibConfig {
             if !(v.is_finite() && v > 0.0) {
                 return Err(format!("`{k}` must be a positive number, got {v}"));
             }
+        }
+        let max = flexcal_core::engine::MAX_DELAY_S;
+        if !(self.initial_delay_s.abs() <= max) {
+            return Err(format!(
+                "`initial_delay_s` must be within ±{max} s, got {}",
+                self.initial_delay_s
+            ));
         }
         self.augmentation::<f64>().map(|_| ())
     }
@@ -300,6 +311,7 @@ impl CalibConfig {
             gate_sigma: c(self.gate_sigma),
             variance_floor: c(1e-9),
             augmentation: self.augmentation().unwrap_or_default(),
+            initial_delay_s: self.initial_delay_s,
         }
     }
 }

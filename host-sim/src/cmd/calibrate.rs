@@ -83,7 +83,7 @@ pub fn resolve_config(
 pub fn run(a: &Args) -> Result<(), String> {
     let rec = read_recording(&a.rec_dir).map_err(|e| e.to_string())?;
     let (mut cfg, origin) = resolve_config(&a.rec_dir, a.config.as_deref())?;
-    a.model.apply(&mut cfg);
+    a.model.apply(&mut cfg)?;
     if cfg.matching_flags().angular_rate && !rec.master_has_rate() {
         cfg.matching.retain(|m| m != "angular_rate");
         eprintln!("flexcal: the master gives no angular rate: angular-rate matching is off (velocity and attitude matching only)");

@@ -40,16 +40,23 @@ pub struct ModelArgs {
     /// fixes it (`identify_flexure = true` in the configuration does the same).
     #[arg(long)]
     pub identify_flexure: bool,
+    /// Effects to carry beyond the declared model, comma separated, by their
+    /// `diagnosis.json` names (e.g. `time_delay,lever_arm_error`); added to the
+    /// configuration's `effects`.
+    #[arg(long, value_delimiter = ',')]
+    pub effects: Vec<String>,
 }
 
 impl ModelArgs {
-    /// Applies the switches to a configuration.
-    pub fn apply(&self, cfg: &mut CalibConfig) {
+    /// Applies the switches to a configuration; an unknown or repeated effect is an error.
+    pub fn apply(&self, cfg: &mut CalibConfig) -> Result<(), String> {
         if self.no_dynamic_lever_arm {
             cfg.dynamic_lever_arm = false;
         }
         if self.identify_flexure {
             cfg.identify_flexure = true;
         }
+        cfg.effects.extend(self.effects.iter().cloned());
+        cfg.augmentation::<f64>().map(|_| ())
     }
 }

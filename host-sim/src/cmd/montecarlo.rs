@@ -162,7 +162,7 @@ fn ratio_figure(scenario: &str, agg: &Aggregate) -> Figure {
 pub fn run(a: &Args) -> Result<(), String> {
     let sc = a.scenario.load()?;
     let mut cfg = CalibConfig::declared_for(&sc, 1.0 / sc.master.rate_hz);
-    a.model.apply(&mut cfg);
+    a.model.apply(&mut cfg)?;
     let bar = ProgressBar::new(a.runs as u64);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {elapsed} elapsed, ETA {eta}")

@@ -37,7 +37,8 @@ pub fn summary_json(
         "duration_s": duration_s,
         "precision": res.precision,
         "model": {
-            "states": flexcal_core::model::N,
+            "states": cfg.augmentation::<f64>().map_or(flexcal_core::model::N, |a| a.dimension()),
+            "effects": cfg.effects,
             "matching": matching,
             "dynamic_lever_arm": cfg.dynamic_lever_arm,
             "flexure_ar_order": cfg.flexure_orders().into_iter().max().unwrap_or(0),
@@ -78,10 +79,32 @@ pub fn summary_json(
             "min_diagonal_scaled": res.covariance.min_diagonal,
         },
     });
-    if let (Some(s), Some(obj)) = (score, v.as_object_mut()) {
-        obj.insert("errors".into(), json!(s));
+    if let Some(obj) = v.as_object_mut() {
+        if !res.effect_rows.is_empty() {
+            obj.insert("effects".into(), effects_json(res));
+        }
+        if let Some(s) = score {
+            obj.insert("errors".into(), json!(s));
+        }
     }
     v
+}
+
+/// The final estimate of each augmented effect: name, unit, values, σ and the Wald
+/// statistic of its block.
+pub fn effects_json(res: &CalibResult) -> Value {
+    res.final_effects()
+        .iter()
+        .map(|e| {
+            json!({
+                "name": e.effect.name(),
+                "unit": e.effect.unit(),
+                "estimate": e.value,
+                "sigma": e.sigma,
+                "wald": e.wald,
+            })
+        })
+        .collect()
 }
 
 /// 95% band of the mean NIS of `n` scalar innovations of a consistent filter.
