@@ -122,13 +122,13 @@ impl Effect {
     }
 
     /// A prior σ wide enough for any plausible sensor or installation (SI): 1000 ppm,
-    /// 1 mrad, 0.2 s, 2 m, 100 °/h per g, 100 m/rad. The filter's evidence for an effect
+    /// 1 mrad, 0.1 s, 2 m, 100 °/h per g, 100 m/rad. The filter's evidence for an effect
     /// is its estimate against its posterior σ, which a wide prior leaves to the data.
     pub fn default_prior_sigma(self) -> f64 {
         match self {
             Effect::GyroScaleFactor | Effect::AccelScaleFactor => 1e-3,
             Effect::GyroMisalignment | Effect::AccelMisalignment => 1e-3,
-            Effect::TimeDelay => 0.2,
+            Effect::TimeDelay => 0.1,
             Effect::LeverArmError => 2.0,
             Effect::GyroGSensitivity => 100.0 * (core::f64::consts::PI / 180.0 / 3600.0) / 9.806_65,
             Effect::LeverArmCoupling => 100.0,

@@ -298,7 +298,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         if !(period_ok && flex_ok && cfg.gate_sigma > T::zero()) {
             return Err(EngineError::BadConfig);
         }
-        if !(cfg.initial_delay_s.abs() <= MAX_DELAY_S) {
+        if !(cfg.initial_delay_s.is_finite() && cfg.initial_delay_s.abs() <= MAX_DELAY_S) {
             return Err(EngineError::BadConfig);
         }
         if cfg.augmentation.dimension() > S || S < N {
@@ -402,6 +402,14 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// The filter (for covariance checks and reports).
     pub fn filter(&self) -> &Kalman<T, S> {
         &self.kf
+    }
+
+    /// Freezes the calibrated quantities (misalignment, biases, augmented effects) at
+    /// their current estimates; the navigation and flexure states go on being estimated.
+    /// What follows is a prediction of the innovations by the frozen calibration.
+    pub fn freeze_calibration(&mut self) {
+        self.kf.freeze(MU..TH);
+        self.kf.freeze(N..self.cfg.augmentation.dimension());
     }
 
     /// The estimate of an augmented effect, if the layout carries it.
@@ -542,6 +550,39 @@ impl<T: Real, const S: usize> Engine<T, S> {
         reports
     }
 
+    /// The slave time up to which the solution must be integrated before the master
+    /// message stamped `t` is matched: its time of validity `t − τ̂`. With a delay in the
+    /// layout the matching time falls anywhere between filter epochs, and the flexure
+    /// states belong to the epoch that ends the period containing it (`flexure_lag`), so
+    /// the slave goes on to that epoch first.
+    fn needed_until(&self, t: f64) -> f64 {
+        let t_s = t - self.delay_s;
+        if self.cfg.augmentation.offset(Effect::TimeDelay).is_none() {
+            return t_s;
+        }
+        let period = self.cfg.filter_period_s;
+        match (self.epoch, self.strapdown.is_some()) {
+            (Some(ep), true) => {
+                let last = ep.next_t - period;
+                if t_s <= last + 1e-6 * period {
+                    t_s
+                } else {
+                    let k = ((t_s - ep.next_t) / period - 1e-6).ceil().max(0.0);
+                    ep.next_t + k * period
+                }
+            }
+            _ => t_s,
+        }
+    }
+
+    /// How long before the flexure states' epoch (the last time update) slave time
+    /// `t_s` is (s, ≥ 0 once `needed_until` held).
+    fn flexure_lag(&self, t_s: f64) -> f64 {
+        self.epoch.map_or(0.0, |ep| {
+            (ep.next_t - self.cfg.filter_period_s - t_s).max(0.0)
+        })
+    }
+
     /// Integrates held IMU samples as far as the waiting master messages need (the
     /// sample whose interval contains a master's time of validity, and all before it),
     /// matching each master as soon as the slave solution reaches it.
@@ -551,7 +592,12 @@ impl<T: Real, const S: usize> Engine<T, S> {
         self.process_pending(reports);
         while let Some(front) = self.held.front() {
             let interval_start = front.s.t - front.dt;
-            let wanted = self.pending.back().is_some_and(|m| m.t > interval_start);
+            // A master message needs the slave up to its time of validity less the delay
+            // (and, with a delay, up to the filter epoch after that: `needed_until`).
+            let wanted = self
+                .pending
+                .back()
+                .is_some_and(|m| self.needed_until(m.t) > interval_start);
             if !wanted {
                 break;
             }
@@ -645,7 +691,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
     fn process_pending(&mut self, reports: &mut StepReports<T>) {
         while let Some(msg) = self.pending.front().copied() {
             let newest = self.buffer.newest_time();
-            if newest.is_none_or(|t| msg.t - self.delay_s > t) {
+            let needed = self.needed_until(msg.t);
+            if newest.is_none_or(|t| needed > t + 1e-9 * self.cfg.filter_period_s) {
                 break;
             }
             let _ = self.pending.pop_front();
@@ -838,7 +885,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             w_dot_bs,
             w_ib_bs,
             f_bs,
-            theta: block(TH),
+            theta: block(TH) - block(THD) * T::of(self.flexure_lag(t_s)),
             theta_rate: block(THD),
         }
     }
@@ -858,9 +905,23 @@ impl<T: Real, const S: usize> Engine<T, S> {
         let (w_eb, w_eb_var) = self.master_rate_wrt_earth(msg, &c_bm_n);
         let aug = self.cfg.augmentation;
         let sig = (!aug.is_empty()).then(|| self.signature(t_s, &slave, msg, &c_bm_n, &w_eb));
+        // The flexure states belong to the last epoch, `lag` after the matching time:
+        // the measurement sees θ(t_s) = θ − lag θ̇ (exact for a flexure linear over the
+        // period). Zero without a delay in the layout (matching at the epoch).
+        let lag = T::of(self.flexure_lag(t_s));
         let augment = |rows: &mut model::Rows<T, S>, channel: Channel| {
             if let Some(sig) = &sig {
                 augment::add_measurement(rows, &aug, channel, sig);
+            }
+            if lag != T::zero() {
+                for row in rows.iter_mut() {
+                    for k in 0..3 {
+                        let th = vget(row, TH + k);
+                        if let Some(e) = row.get_mut(THD + k) {
+                            *e -= lag * th;
+                        }
+                    }
+                }
             }
         };
 

@@ -118,6 +118,20 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         }
     }
 
+    /// Freezes the states in `indices` at their current estimate: their rows and
+    /// columns of the covariance are zeroed and their variances set to the floor, so
+    /// later updates leave them (practically) unchanged. Used to estimate on one part of
+    /// a recording and predict the innovations of the rest.
+    pub fn freeze(&mut self, indices: core::ops::Range<usize>) {
+        for i in indices {
+            for j in 0..N {
+                mat::set(&mut self.ps, i, j, T::zero());
+                mat::set(&mut self.ps, j, i, T::zero());
+            }
+            mat::set(&mut self.ps, i, i, self.floor);
+        }
+    }
+
     /// Time update `x ← Φ x`, `P ← Φ P Φᵀ + Q` (physical-unit Φ and Q), using only the
     /// non-zero entries of Φ and computing one triangle of the symmetric result.
     pub fn predict(&mut self, phi: &SMatrix<T, N, N>, q: &SMatrix<T, N, N>) {

@@ -2,6 +2,7 @@
 
 pub mod calib;
 pub mod cmd;
+pub mod diagnose;
 pub mod identify;
 pub mod plot;
 pub mod recording;

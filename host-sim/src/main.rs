@@ -28,6 +28,8 @@ enum Command {
     Identify(cmd::identify::Args),
     /// Replay a recording through the board firmware in QEMU: summary.json, estimates.csv.
     Replay(cmd::replay::Args),
+    /// Find structure left in the residuals, name the effect, add it: diagnosis.json, report.md.
+    Diagnose(cmd::diagnose::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -39,6 +41,7 @@ fn main() -> std::process::ExitCode {
         Command::Identify(a) => cmd::identify::run(&a),
         Command::PaperFigures(a) => cmd::paper_figures::run(&a),
         Command::Replay(a) => cmd::replay::run(&a),
+        Command::Diagnose(a) => cmd::diagnose::run(&a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

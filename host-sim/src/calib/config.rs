@@ -199,7 +199,7 @@ impl CalibConfig {
             }
         }
         let max = flexcal_core::engine::MAX_DELAY_S;
-        if !(self.initial_delay_s.abs() <= max) {
+        if !(self.initial_delay_s.is_finite() && self.initial_delay_s.abs() <= max) {
             return Err(format!(
                 "`initial_delay_s` must be within ±{max} s, got {}",
                 self.initial_delay_s
@@ -309,7 +309,13 @@ impl CalibConfig {
             },
             initial_misalignment_rad: Vector3::zeros(),
             gate_sigma: c(self.gate_sigma),
-            variance_floor: c(1e-9),
+            // The smallest scaled variance: 1e-9 keeps f32 positive definite; f64 can go
+            // lower, which a sharply observed augmented state (a delay known to µs) needs.
+            variance_floor: c(if std::mem::size_of::<T>() >= 8 {
+                1e-12
+            } else {
+                1e-9
+            }),
             augmentation: self.augmentation().unwrap_or_default(),
             initial_delay_s: self.initial_delay_s,
         }

@@ -205,12 +205,22 @@ fn wald<T: Real, const S: usize>(engine: &Engine<T, S>, offset: usize, k: usize)
     }
 }
 
+/// Options of a run beyond its configuration.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RunOptions {
+    /// Freeze the calibrated quantities at this time (s): the innovations after it are
+    /// predicted by the calibration estimated before it (the held-out check).
+    pub freeze_at_s: Option<f64>,
+}
+
 /// Calibrates a recording with a configuration, in precision `T` and state dimension `S`.
 fn run_generic<T: Real, const S: usize>(
     rec: &Recording,
     cfg: &CalibConfig,
     precision: Precision,
+    opts: &RunOptions,
 ) -> Result<CalibResult, String> {
+    let mut frozen = false;
     let mut engine = Engine::<T, S>::new(cfg.engine_config::<T>(rec.meta.lever_arm_m))
         .map_err(|e| format!("engine configuration refused: {e:?}"))?;
     let aug = engine.config().augmentation;
@@ -288,6 +298,10 @@ fn run_generic<T: Real, const S: usize>(
             .map_err(|e| format!("IMU sample at t = {}: {e:?}", s.t))?;
         handle(&engine, &reports, &mut rows, &mut cov);
         while let Some(m) = masters.next_if(|m| m.t <= s.t) {
+            if !frozen && opts.freeze_at_s.is_some_and(|t| m.t >= t) {
+                engine.freeze_calibration();
+                frozen = true;
+            }
             // Refused messages are counted by the engine and reported in the summary.
             if let Ok(reports) = engine.push_master(master_nav::<T>(m)) {
                 handle(&engine, &reports, &mut rows, &mut cov);
@@ -316,13 +330,23 @@ pub fn run(
     cfg: &CalibConfig,
     precision: Precision,
 ) -> Result<CalibResult, String> {
+    run_with(rec, cfg, precision, &RunOptions::default())
+}
+
+/// [`run`] with options.
+pub fn run_with(
+    rec: &Recording,
+    cfg: &CalibConfig,
+    precision: Precision,
+    opts: &RunOptions,
+) -> Result<CalibResult, String> {
     let dim = cfg.augmentation::<f64>()?.dimension();
     macro_rules! dispatch {
         ($($s:literal),*) => {
             $(if dim <= $s {
                 return match precision {
-                    Precision::F64 => run_generic::<f64, $s>(rec, cfg, precision),
-                    Precision::F32 => run_generic::<f32, $s>(rec, cfg, precision),
+                    Precision::F64 => run_generic::<f64, $s>(rec, cfg, precision, opts),
+                    Precision::F32 => run_generic::<f32, $s>(rec, cfg, precision, opts),
                 };
             })*
         };

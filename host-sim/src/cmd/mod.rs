@@ -2,6 +2,7 @@
 
 pub mod calibrate;
 pub mod common;
+pub mod diagnose;
 pub mod identify;
 pub mod montecarlo;
 pub mod paper_figures;

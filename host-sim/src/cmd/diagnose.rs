@@ -1,0 +1,95 @@
+//! `flexcal diagnose`: calibrate with the declared model, find the structure its
+//! residuals keep, add the candidate effect that explains it, repeat; write
+//! `diagnosis.json`, `report.md` and plots.
+
+use crate::cmd::calibrate::{choose_flexure, resolve_config};
+use crate::diagnose::{diagnose, report, Options};
+use crate::recording::read_recording;
+use flexcal_core::augment::Effect;
+use std::path::PathBuf;
+
+/// Arguments of `flexcal diagnose`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Recording directory (format v1).
+    pub rec_dir: PathBuf,
+    /// Output directory.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Declared model (TOML). Default: `REC_DIR/calibrate.toml` when the simulator wrote
+    /// one, else the built-in configuration.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Candidate effects, comma separated (default: all of the vocabulary).
+    #[arg(long, value_delimiter = ',')]
+    pub candidates: Vec<String>,
+    /// Most effects added.
+    #[arg(long, default_value_t = 3)]
+    pub budget: usize,
+    /// Family-wise false-alarm level.
+    #[arg(long, default_value_t = 0.01)]
+    pub alpha: f64,
+    /// Fraction of the recording the held-out check estimates on.
+    #[arg(long, default_value_t = 0.7)]
+    pub holdout_fraction: f64,
+}
+
+/// Runs `flexcal diagnose`.
+pub fn run(a: &Args) -> Result<(), String> {
+    let rec = read_recording(&a.rec_dir).map_err(|e| e.to_string())?;
+    let (mut cfg, origin) = resolve_config(&a.rec_dir, a.config.as_deref())?;
+    if cfg.matching_flags().angular_rate && !rec.master_has_rate() {
+        cfg.matching.retain(|m| m != "angular_rate");
+        eprintln!("flexcal: the master gives no angular rate: angular-rate matching is off");
+    }
+    eprintln!("flexcal: declared model: {origin}");
+    let flexure_source = choose_flexure(&rec, &mut cfg);
+    eprintln!("flexcal: flexure model: {flexure_source}");
+    let candidates = if a.candidates.is_empty() {
+        Effect::ALL.to_vec()
+    } else {
+        a.candidates
+            .iter()
+            .map(|n| {
+                Effect::from_name(n).ok_or_else(|| {
+                    let known: Vec<&str> = Effect::ALL.iter().map(|e| e.name()).collect();
+                    format!("--candidates: unknown effect `{n}` ({})", known.join(", "))
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?
+    };
+    let opts = Options {
+        candidates,
+        budget: a.budget,
+        alpha: a.alpha,
+        holdout_fraction: a.holdout_fraction,
+    };
+    let d = diagnose(&rec, &cfg, &opts)?;
+    std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
+    let label = a.rec_dir.display().to_string();
+    let command: String = std::env::args().collect::<Vec<_>>().join(" ");
+    let doc = report::diagnosis_json(&d, &label, &rec, &command);
+    let text = serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())?;
+    let path = a.out.join("diagnosis.json");
+    std::fs::write(&path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
+    let md = report::report_md(&d, &label, &rec, &command);
+    let path = a.out.join("report.md");
+    std::fs::write(&path, md).map_err(|e| format!("{}: {e}", path.display()))?;
+    report::write_plots(&a.out, &d, &rec).map_err(|e| e.to_string())?;
+    println!("diagnosed {label} -> {}", a.out.display());
+    if d.found.is_empty() {
+        println!("  no effect found");
+    }
+    for t in &d.found {
+        println!(
+            "  {}: {:?} ± {:?} (Wald {:.1}, LR {:.1}, threshold {:.1})",
+            t.effect, t.estimate, t.sigma, t.wald, t.likelihood_ratio, t.threshold
+        );
+    }
+    let left = report::structure(&d.after, opts.alpha, report::master_rate_hz(&rec))
+        .into_iter()
+        .filter(|s| s.rejected)
+        .count();
+    println!("  channels with unexplained structure: {left}");
+    Ok(())
+}

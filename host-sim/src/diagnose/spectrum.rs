@@ -1,0 +1,174 @@
+//! Spectra and autocorrelations of whitened innovations: where the structure left in
+//! the residuals sits in frequency and in lag. A white sequence has a flat spectrum at
+//! its variance and an autocorrelation inside ±1.96/√n beyond lag 0.
+
+type Complex64 = nalgebra::Complex<f64>;
+
+/// Welch segment length (samples, a power of two).
+pub const SEGMENT: usize = 1024;
+
+/// In-place radix-2 FFT (length a power of two).
+fn fft(x: &mut [Complex64]) {
+    let n = x.len();
+    if n <= 1 {
+        return;
+    }
+    let mut j = 0;
+    for i in 1..n {
+        let mut bit = n >> 1;
+        while j & bit != 0 {
+            j ^= bit;
+            bit >>= 1;
+        }
+        j |= bit;
+        if i < j {
+            x.swap(i, j);
+        }
+    }
+    let mut len = 2;
+    while len <= n {
+        let w = Complex64::from_polar(1.0, -2.0 * std::f64::consts::PI / len as f64);
+        for start in (0..n).step_by(len) {
+            let mut wk = Complex64::new(1.0, 0.0);
+            for k in 0..len / 2 {
+                let a = x[start + k];
+                let b = x[start + k + len / 2] * wk;
+                x[start + k] = a + b;
+                x[start + k + len / 2] = a - b;
+                wk *= w;
+            }
+        }
+        len <<= 1;
+    }
+}
+
+/// A one-sided power spectral density estimate.
+#[derive(Clone, Debug, Default)]
+pub struct Psd {
+    /// Frequencies (Hz).
+    pub freq_hz: Vec<f64>,
+    /// Density normalized to the white level: 1 everywhere for white noise of any variance
+    /// equal to the mean square of the input (so a whitened innovation's PSD is ≈ 1).
+    pub level: Vec<f64>,
+}
+
+impl Psd {
+    /// The frequency (Hz) of the largest level above the lowest bin, and that level.
+    pub fn peak(&self) -> Option<(f64, f64)> {
+        self.freq_hz
+            .iter()
+            .zip(&self.level)
+            .skip(1)
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .map(|(f, l)| (*f, *l))
+    }
+}
+
+/// Welch estimate (Hann window, half overlap) of the PSD of `x` sampled at `rate_hz`,
+/// normalized so that white noise gives 1 (the density divided by `2σ²/rate`, σ² the
+/// mean square of `x`). Empty when `x` is shorter than one segment.
+pub fn welch(x: &[f64], rate_hz: f64) -> Psd {
+    let n = SEGMENT;
+    if x.len() < n || rate_hz <= 0.0 {
+        return Psd::default();
+    }
+    let window: Vec<f64> = (0..n)
+        .map(|i| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / n as f64).cos())
+        .collect();
+    let w2: f64 = window.iter().map(|w| w * w).sum();
+    let mut acc = vec![0.0; n / 2 + 1];
+    let mut segments = 0usize;
+    let mut start = 0;
+    while start + n <= x.len() {
+        let seg = &x[start..start + n];
+        let mean = seg.iter().sum::<f64>() / n as f64;
+        let mut buf: Vec<Complex64> = seg
+            .iter()
+            .zip(&window)
+            .map(|(v, w)| Complex64::new((v - mean) * w, 0.0))
+            .collect();
+        fft(&mut buf);
+        for (a, c) in acc.iter_mut().zip(buf.iter()) {
+            *a += c.norm_sqr();
+        }
+        segments += 1;
+        start += n / 2;
+    }
+    let ms = x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64;
+    // |X_k|² / Σw² is the periodogram in units of σ² per bin (mean σ² for white noise).
+    let scale = 1.0 / (segments as f64 * w2 * ms.max(f64::MIN_POSITIVE));
+    Psd {
+        freq_hz: (0..=n / 2).map(|k| k as f64 * rate_hz / n as f64).collect(),
+        level: acc.iter().map(|a| a * scale).collect(),
+    }
+}
+
+/// Sample autocorrelation of `x` at lags `0..=max_lag` (lag 0 is 1).
+pub fn autocorrelation(x: &[f64], max_lag: usize) -> Vec<f64> {
+    let n = x.len();
+    if n < 2 {
+        return Vec::new();
+    }
+    let mean = x.iter().sum::<f64>() / n as f64;
+    let c0: f64 = x.iter().map(|v| (v - mean) * (v - mean)).sum();
+    if c0 <= 0.0 {
+        return Vec::new();
+    }
+    (0..=max_lag.min(n - 1))
+        .map(|k| {
+            x.iter()
+                .zip(&x[k..])
+                .map(|(a, b)| (a - mean) * (b - mean))
+                .sum::<f64>()
+                / c0
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_distr::StandardNormal;
+
+    #[test]
+    fn white_noise_is_flat_and_a_sine_peaks_at_its_frequency() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let white: Vec<f64> = (0..20_000).map(|_| rng.sample(StandardNormal)).collect();
+        let p = welch(&white, 100.0);
+        let mean = p.level.iter().skip(1).sum::<f64>() / (p.level.len() - 1) as f64;
+        assert!((mean - 1.0).abs() < 0.05, "white level {mean}");
+        let acf = autocorrelation(&white, 20);
+        assert_eq!(acf[0], 1.0);
+        assert!(acf[1..].iter().all(|r| r.abs() < 3.0 / (20_000f64).sqrt()));
+        let sine: Vec<f64> = white
+            .iter()
+            .enumerate()
+            .map(|(k, v)| v + 0.5 * (2.0 * std::f64::consts::PI * 2.5 * k as f64 / 100.0).sin())
+            .collect();
+        let (f, level) = welch(&sine, 100.0).peak().unwrap();
+        assert!((f - 2.5).abs() < 0.1 && level > 20.0, "{f} {level}");
+    }
+
+    #[test]
+    fn fft_matches_a_direct_dft() {
+        let x: Vec<Complex64> = (0..16)
+            .map(|k| Complex64::new((k as f64 * 0.7).sin(), (k as f64 * 0.3).cos()))
+            .collect();
+        let mut y = x.clone();
+        fft(&mut y);
+        for (k, yk) in y.iter().enumerate() {
+            let d: Complex64 = x
+                .iter()
+                .enumerate()
+                .map(|(j, xj)| {
+                    xj * Complex64::from_polar(
+                        1.0,
+                        -2.0 * std::f64::consts::PI * (j * k) as f64 / 16.0,
+                    )
+                })
+                .sum();
+            assert!((d - yk).norm() < 1e-12);
+        }
+    }
+}
