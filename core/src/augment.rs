@@ -121,6 +121,17 @@ impl Effect {
         Self::ALL.iter().copied().find(|e| e.code() == code)
     }
 
+    /// The smallest magnitude (SI, any state of the block) the diagnosis reports the
+    /// effect at, however significant. Zero except for the delay: its estimate carries a
+    /// bias of +0.1 to +0.2 ms on simulated complete models (`docs/diagnosis.md`, open),
+    /// so delays under 0.5 ms are below what the tool resolves.
+    pub fn resolution_floor(self) -> f64 {
+        match self {
+            Effect::TimeDelay => 5e-4,
+            _ => 0.0,
+        }
+    }
+
     /// A prior σ wide enough for any plausible sensor or installation (SI): 1000 ppm,
     /// 1 mrad, 0.1 s, 2 m, 100 °/h per g, 100 m/rad. The filter's evidence for an effect
     /// is its estimate against its posterior σ, which a wide prior leaves to the data.

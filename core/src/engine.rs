@@ -273,7 +273,9 @@ pub struct Engine<T: Real, const S: usize = N> {
     /// Nominal master delay τ̂ (s) when the layout carries `time_delay`: a master
     /// message stamped t is matched with the slave at t − τ̂ (closed loop, like the biases).
     delay_s: f64,
-    /// The master's last two angular rates `(t, ω_ib^bm)` (for the delay's rate column).
+    /// Whether the calibrated quantities are frozen (`freeze_calibration`).
+    frozen: bool,
+    /// The master's last angular rates `(t, ω_ib^bm)` (for the delay's rate column).
     past_master_rates: Deque<(f64, Vector3<T>), RATE_HISTORY>,
 }
 
@@ -323,6 +325,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             gated_streaks: [0; 3],
             delay_s: cfg.initial_delay_s,
             past_master_rates: Deque::new(),
+            frozen: false,
             cfg,
         })
     }
@@ -410,6 +413,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
     pub fn freeze_calibration(&mut self) {
         self.kf.freeze(MU..TH);
         self.kf.freeze(N..self.cfg.augmentation.dimension());
+        self.frozen = true;
     }
 
     /// The estimate of an augmented effect, if the layout carries it.
@@ -567,7 +571,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 if t_s <= last + 1e-6 * period {
                     t_s
                 } else {
-                    let k = ((t_s - ep.next_t) / period - 1e-6).ceil().max(0.0);
+                    let k = libm::ceil((t_s - ep.next_t) / period - 1e-6).max(0.0);
                     ep.next_t + k * period
                 }
             }
@@ -669,7 +673,13 @@ impl<T: Real, const S: usize> Engine<T, S> {
             pos: nav.pos,
         };
         let phi = model::transition::<T, S>(&means, &self.cfg.flexure, &self.cfg.augmentation, dtt);
-        let q = model::process_noise::<T, S>(&self.cfg.process_noise, &self.cfg.flexure, dtt);
+        let mut q = model::process_noise::<T, S>(&self.cfg.process_noise, &self.cfg.flexure, dtt);
+        if self.frozen {
+            // Frozen quantities take no process noise either (their random walks stop).
+            for i in (MU..TH).chain(N..self.cfg.augmentation.dimension()) {
+                mat::set(&mut q, i, i, T::zero());
+            }
+        }
         self.kf.predict(&phi, &q);
         self.counters.predictions += 1;
         // The next epoch; after a gap, restart the grid from this sample.

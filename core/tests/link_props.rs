@@ -9,15 +9,21 @@
     clippy::indexing_slicing
 )]
 
-use flexcal_core::engine::Counters;
+use flexcal_core::augment::{Effect, MAX_EFFECTS};
+use flexcal_core::engine::{Counters, EngineConfig, Matching};
 use flexcal_core::kalman::Health;
 use flexcal_core::link::codec::MAX_STUFFED_LEN;
 use flexcal_core::link::{
-    encode, frame_len, DecodeError, Decoder, DecoderCounters, EstimatesMsg, Frame, HealthFlags,
-    ImuSampleMsg, LinkCounters, LinkError, MasterNavMsg, Message, MessageKind, Receiver,
-    SequenceCounters, SequenceError, StatusMsg, MAX_FRAME_LEN,
+    encode, frame_len, ConfigMsg, DecodeError, Decoder, DecoderCounters, EffectPrior, EffectsError,
+    EffectsMsg, EstimatesMsg, Frame, HealthFlags, ImuSampleMsg, LinkCounters, LinkError,
+    MasterNavMsg, Message, MessageKind, Receiver, SequenceCounters, SequenceError, StatusMsg,
+    EFFECT_STATES_PER_FRAME, MAX_FRAME_LEN,
 };
+use flexcal_core::model::LeverBending;
 use proptest::prelude::*;
+
+/// One slot per stream.
+const STREAMS: usize = MessageKind::COUNT;
 
 // ---------------------------------------------------------------- strategies
 
@@ -146,12 +152,133 @@ fn status() -> impl Strategy<Value = StatusMsg> {
     })
 }
 
+fn positive_f32() -> impl Strategy<Value = f32> {
+    use prop::num::f32::*;
+    POSITIVE | NORMAL | SUBNORMAL
+}
+
+fn positive_f64() -> impl Strategy<Value = f64> {
+    use prop::num::f64::*;
+    POSITIVE | NORMAL | SUBNORMAL
+}
+
+/// A layout: distinct effects in any order, `min..=MAX_EFFECTS` of them.
+fn layout(min: usize) -> impl Strategy<Value = Vec<Effect>> {
+    prop::sample::subsequence(Effect::ALL.to_vec(), min..=MAX_EFFECTS).prop_shuffle()
+}
+
+fn config() -> impl Strategy<Value = ConfigMsg> {
+    let sigma = || finite_f32().prop_map(f32::abs);
+    (
+        (
+            finite_f64(),
+            positive_f64(),
+            positive_f64(),
+            any::<[bool; 5]>(),
+        ),
+        (
+            vec3(),
+            prop::array::uniform3((finite_f32(), finite_f32(), sigma())),
+        ),
+        (
+            prop::array::uniform5(sigma()),
+            prop::array::uniform3(sigma()),
+            prop::array::uniform5(sigma()),
+            vec3(),
+        ),
+        (positive_f32(), sigma(), any::<u16>(), any::<u16>()),
+        (
+            layout(0),
+            prop::collection::vec(positive_f32(), MAX_EFFECTS),
+            -0.25f32..0.25,
+        ),
+    )
+        .prop_map(
+            |(
+                (t, filter_period_s, flexure_period_s, flags),
+                (lever_arm_m, flexure),
+                (process_noise, measurement_noise, initial_sigma, initial_misalignment_rad),
+                (gate_sigma, variance_floor, estimates_every, status_every),
+                (effects, priors, initial_delay_s),
+            )| {
+                let mut slots = [None; MAX_EFFECTS];
+                for ((slot, effect), prior_sigma) in slots.iter_mut().zip(effects).zip(priors) {
+                    *slot = Some(EffectPrior {
+                        effect,
+                        prior_sigma,
+                    });
+                }
+                ConfigMsg {
+                    t,
+                    filter_period_s,
+                    matching: Matching {
+                        velocity: flags[0],
+                        attitude: flags[1],
+                        angular_rate: flags[2],
+                    },
+                    dynamic_lever_arm: flags[3],
+                    bending: if flags[4] {
+                        LeverBending::UniformArc
+                    } else {
+                        LeverBending::Paper
+                    },
+                    lever_arm_m,
+                    flexure_period_s,
+                    flexure: flexure.map(|(a1, a2, s)| [a1, a2, s]),
+                    process_noise,
+                    measurement_noise,
+                    initial_sigma,
+                    initial_misalignment_rad,
+                    gate_sigma,
+                    variance_floor,
+                    estimates_every,
+                    status_every,
+                    effects: slots,
+                    initial_delay_s,
+                }
+            },
+        )
+}
+
+/// An Effects frame: a layout of 1 to 4 effects, one of its pages, finite values, σ ≥ 0,
+/// zeros past the layout's last state.
+fn effects() -> impl Strategy<Value = EffectsMsg> {
+    (
+        finite_f64(),
+        layout(1),
+        any::<prop::sample::Index>(),
+        prop::array::uniform12(finite_f32()),
+        prop::array::uniform12(finite_f32().prop_map(f32::abs)),
+    )
+        .prop_map(|(t, effects, page, mut value, mut sigma)| {
+            let mut layout = [None; MAX_EFFECTS];
+            for (slot, e) in layout.iter_mut().zip(effects) {
+                *slot = Some(e);
+            }
+            let page = page.index(EffectsMsg::frames(&layout));
+            let used = EffectsMsg::layout_states(&layout) - page * EFFECT_STATES_PER_FRAME;
+            for k in used.min(EFFECT_STATES_PER_FRAME)..EFFECT_STATES_PER_FRAME {
+                value[k] = 0.0;
+                sigma[k] = 0.0;
+            }
+            EffectsMsg {
+                t,
+                layout,
+                page: page as u8,
+                value,
+                sigma,
+            }
+        })
+}
+
 fn message() -> impl Strategy<Value = Message> {
     prop_oneof![
         master_nav().prop_map(Message::MasterNav),
         imu_sample().prop_map(Message::ImuSample),
         estimates().prop_map(Message::Estimates),
         status().prop_map(Message::Status),
+        config().prop_map(Message::Config),
+        effects().prop_map(Message::Effects),
     ]
 }
 
@@ -191,6 +318,10 @@ fn with_time(m: Message, t: f64) -> Message {
             x.t = t;
             Message::End(x)
         }
+        Message::Effects(mut x) => {
+            x.t = t;
+            Message::Effects(x)
+        }
     }
 }
 
@@ -203,7 +334,7 @@ fn encode_vec(frame: &Frame) -> Vec<u8> {
 
 /// Frames with per-stream sequence numbers (starting anywhere) and increasing times.
 fn numbered(msgs: &[Message], first_seq: u16) -> Vec<Frame> {
-    let mut next = [first_seq; 4];
+    let mut next = [first_seq; STREAMS];
     msgs.iter()
         .enumerate()
         .map(|(i, m)| {
@@ -309,6 +440,222 @@ proptest! {
         let back32 = MasterNavMsg::from_engine(&e32);
         prop_assert_eq!(back32.v_n, m.v_n);
         prop_assert_eq!(back32.w_ib_bm, m.w_ib_bm);
+    }
+}
+
+// ---------------------------------------------------------------- (1b) augmentation
+
+/// The refusal the protocol prescribes for the 21 augmentation bytes of a Config
+/// (count, then four slots of code and prior σ), in the decoder's order: the count, then
+/// each slot (an unknown code in a used slot, stray bytes in an unused one), then
+/// duplicates, then the priors (`docs/link-protocol.md`).
+fn expected_augmentation(bytes: &[u8; 21]) -> Result<(), EffectsError> {
+    let count = bytes[0];
+    if usize::from(count) > MAX_EFFECTS {
+        return Err(EffectsError::TooMany { count });
+    }
+    let slot = |i: usize| {
+        let b = &bytes[1 + 5 * i..6 + 5 * i];
+        (b[0], f32::from_le_bytes(b[1..5].try_into().unwrap()), b)
+    };
+    for i in 0..MAX_EFFECTS {
+        let (code, _, raw) = slot(i);
+        if i < usize::from(count) {
+            if Effect::from_code(code).is_none() {
+                return Err(EffectsError::UnknownCode { code });
+            }
+        } else if raw.iter().any(|b| *b != 0) {
+            return Err(EffectsError::UnusedSlot);
+        }
+    }
+    let used = usize::from(count);
+    for i in 0..used {
+        if (0..i).any(|j| slot(j).0 == slot(i).0) {
+            return Err(EffectsError::Duplicate { code: slot(i).0 });
+        }
+    }
+    for i in 0..used {
+        let (code, prior, _) = slot(i);
+        if !(prior > 0.0 && prior.is_finite()) {
+            return Err(EffectsError::BadPrior { code });
+        }
+    }
+    Ok(())
+}
+
+/// Bytes for the augmentation part: mostly plausible (known codes, small counts, sane
+/// priors), sometimes anything.
+fn augmentation_bytes() -> impl Strategy<Value = [u8; 21]> {
+    let code = prop_oneof![4 => 1u8..=8, 1 => Just(0u8), 1 => any::<u8>()];
+    let prior = prop_oneof![
+        4 => positive_f32(),
+        1 => Just(0.0f32),
+        1 => Just(-1.0f32),
+        1 => Just(f32::NAN),
+        1 => Just(f32::INFINITY),
+        1 => any::<f32>(),
+    ];
+    (
+        prop_oneof![4 => 0u8..=4, 1 => any::<u8>()],
+        prop::array::uniform4((code, prior)),
+        any::<[bool; 4]>(),
+    )
+        .prop_map(|(count, slots, zero_unused)| {
+            let mut b = [0u8; 21];
+            b[0] = count;
+            for (i, ((code, prior), zero)) in slots.into_iter().zip(zero_unused).enumerate() {
+                if i >= usize::from(count) && zero {
+                    continue;
+                }
+                b[1 + 5 * i] = code;
+                b[2 + 5 * i..6 + 5 * i].copy_from_slice(&prior.to_le_bytes());
+            }
+            b
+        })
+}
+
+/// A frame with the given type and payload and a valid CRC (what a buggy or malicious
+/// sender could produce).
+fn raw_frame(ty: u8, seq: u16, payload: &[u8]) -> Vec<u8> {
+    use flexcal_core::link::{cobs, crc32c::crc32c};
+    let mut body = vec![ty];
+    body.extend_from_slice(&seq.to_le_bytes());
+    body.extend_from_slice(payload);
+    let crc = crc32c(&body);
+    body.extend_from_slice(&crc.to_le_bytes());
+    let mut out = vec![0u8; body.len() + 3];
+    let n = cobs::encode(&body, &mut out[1..]).unwrap();
+    out.truncate(n + 2);
+    out
+}
+
+fn payload_of(m: &Message) -> Vec<u8> {
+    let mut buf = [0u8; 256];
+    let n = m.write_payload(&mut buf).unwrap();
+    buf[..n].to_vec()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    /// A Config with a random layout survives the link and the engine configuration
+    /// exactly: the same effects in the same order with the same prior σ, in f32 and f64.
+    #[test]
+    fn config_layout_round_trip(m in config()) {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let n = encode(3, &Message::Config(m), &mut buf).unwrap();
+        let mut d = Decoder::new();
+        let got: Vec<_> = buf[..n].iter().filter_map(|b| d.push(*b)).collect();
+        prop_assert_eq!(got, vec![Ok(Frame { seq: 3, message: Message::Config(m) })]);
+
+        let e64: EngineConfig<f64> = m.to_engine();
+        let e32: EngineConfig<f32> = m.to_engine();
+        let want: Vec<(Effect, f32)> = m.effects.iter().flatten().map(|p| (p.effect, p.prior_sigma)).collect();
+        let got64: Vec<(Effect, f32)> = e64.augmentation.blocks().map(|b| (b.effect, b.prior_sigma as f32)).collect();
+        let got32: Vec<(Effect, f32)> = e32.augmentation.blocks().map(|b| (b.effect, b.prior_sigma)).collect();
+        prop_assert_eq!(&got64, &want);
+        prop_assert_eq!(&got32, &want);
+        let states: usize = want.iter().map(|(e, _)| e.states()).sum();
+        prop_assert_eq!(e32.augmentation.dimension(), 21 + states);
+        // And back: the f64 engine configuration gives the very same message.
+        let mut back = ConfigMsg::from_engine(&e64, m.estimates_every, m.status_every);
+        back.t = m.t;
+        prop_assert_eq!(back, m);
+        prop_assert_eq!(ConfigMsg::from_engine(&e32, 0, 0).effects, m.effects);
+    }
+
+    /// Arbitrary augmentation bytes in an otherwise valid Config: the decoder never
+    /// panics, accepts exactly the valid layouts and refuses the others with the
+    /// prescribed `BadEffects` error, counted as a bad value.
+    #[test]
+    fn config_augmentation_bytes(m in config(), aug in augmentation_bytes(), seq in any::<u16>()) {
+        let mut payload = payload_of(&Message::Config(m));
+        prop_assert_eq!(payload.len(), 175);
+        payload[150..171].copy_from_slice(&aug);
+        let frame = raw_frame(0x03, seq, &payload);
+        let mut d = Decoder::new();
+        let results: Vec<_> = frame.iter().filter_map(|b| d.push(*b)).collect();
+        prop_assert_eq!(results.len(), 1);
+        match (&results[0], expected_augmentation(&aug)) {
+            (Ok(f), Ok(())) => {
+                let Message::Config(c) = f.message else { panic!("{:?}", f.message) };
+                prop_assert_eq!(c.effects.iter().flatten().count(), usize::from(aug[0]));
+                // Canonical: what was accepted re-encodes to the same bytes.
+                prop_assert_eq!(payload_of(&f.message), payload);
+            }
+            (Err(DecodeError::BadEffects { msg_type: 0x03, error }), Err(want)) => {
+                prop_assert_eq!(*error, want);
+                prop_assert_eq!(d.counters().bad_value, 1);
+            }
+            (got, want) => prop_assert!(false, "decoder {:?}, protocol {:?}", got, want),
+        }
+        check_books(&d, &results);
+    }
+
+    /// Random payloads of the right length for every known type, with a valid CRC (so
+    /// the content checks are what is exercised): never a panic, one verdict per frame,
+    /// only content errors, the books balance, and what is accepted re-encodes to the
+    /// same payload.
+    #[test]
+    fn random_payloads_never_panic(
+        frames in prop::collection::vec(
+            (prop::sample::select(MessageKind::ALL.to_vec()), any::<u16>(), prop::collection::vec(any::<u8>(), 247)),
+            1..30,
+        ),
+    ) {
+        let mut d = Decoder::new();
+        let mut results = Vec::new();
+        let mut payloads = Vec::new();
+        for (kind, seq, bytes) in &frames {
+            let payload = &bytes[..kind.payload_len()];
+            payloads.push(payload.to_vec());
+            let raw = raw_frame(kind.type_byte(), *seq, payload);
+            let mut r: Vec<_> = raw.iter().filter_map(|b| d.push(*b)).collect();
+            prop_assert_eq!(r.len(), 1);
+            results.push(r.remove(0));
+        }
+        for (r, p) in results.iter().zip(&payloads) {
+            match r {
+                Ok(f) => prop_assert_eq!(&payload_of(&f.message), p),
+                Err(e) => prop_assert!(
+                    matches!(e, DecodeError::NonFinite { .. } | DecodeError::BadValue { .. } | DecodeError::BadEffects { .. }),
+                    "{:?}", e
+                ),
+            }
+        }
+        check_books(&d, &results);
+    }
+
+    /// An Effects report reassembles: the pages of a layout carry every state of every
+    /// block once, in state order.
+    #[test]
+    fn effects_pages_carry_every_state(effects in layout(1), t in finite_f64()) {
+        use flexcal_core::engine::EffectEstimate;
+        let blocks: Vec<EffectEstimate<f64>> = effects
+            .iter()
+            .enumerate()
+            .map(|(i, e)| {
+                let mut b = EffectEstimate { effect: *e, value: [0.0; 9], sigma: [0.0; 9] };
+                for k in 0..e.states() {
+                    b.value[k] = (10 * i + k) as f64;
+                    b.sigma[k] = 0.5 + k as f64;
+                }
+                b
+            })
+            .collect();
+        let mut got = Vec::new();
+        let mut page = 0;
+        while let Some(m) = EffectsMsg::from_estimates(t, &blocks, page) {
+            prop_assert!(Message::Effects(m).validate().is_ok());
+            got.extend(m.states());
+            page += 1;
+        }
+        let want: Vec<(Effect, usize, f32, f32)> = blocks
+            .iter()
+            .flat_map(|b| (0..b.effect.states()).map(move |k| (b.effect, k, b.value[k] as f32, b.sigma[k] as f32)))
+            .collect();
+        prop_assert_eq!(page, want.len().div_ceil(EFFECT_STATES_PER_FRAME));
+        prop_assert_eq!(got, want);
     }
 }
 
@@ -553,7 +900,7 @@ fn order() -> impl Strategy<Value = Order> {
 /// The expected verdicts, by the rules of `docs/link-protocol.md` (per stream:
 /// same number → duplicate; older → out of order; newer but not later → stale).
 fn expected_verdicts(delivered: &[Frame]) -> (Vec<Result<u16, SequenceError>>, SequenceCounters) {
-    let mut last: [Option<(u16, f64)>; 4] = [None; 4];
+    let mut last: [Option<(u16, f64)>; STREAMS] = [None; STREAMS];
     let mut c = SequenceCounters::default();
     let mut out = Vec::new();
     for f in delivered {
@@ -658,7 +1005,7 @@ proptest! {
         plan in prop::collection::vec((input_message(), prop_oneof![3 => 0.001f64..1.0, 1 => -1.0f64..=0.0]), 1..60),
     ) {
         let mut t = 0.0;
-        let mut next = [0u16; 4];
+        let mut next = [0u16; STREAMS];
         let frames: Vec<Frame> = plan
             .iter()
             .map(|(m, dt)| {
@@ -690,7 +1037,7 @@ proptest! {
             prop_assert_eq!(rx.counters().sequence, want_c);
         }
         // Whatever is accepted is strictly later than what was accepted before on its stream.
-        let mut last = [f64::NEG_INFINITY; 4];
+        let mut last = [f64::NEG_INFINITY; STREAMS];
         for (f, v) in frames.iter().zip(&got) {
             if v.is_ok() && rx.counters().sequence.resyncs == 0 {
                 let k = f.message.kind().stream_index();
@@ -766,7 +1113,7 @@ proptest! {
         prop_assert_eq!(c.sequence.accepted as usize, accepted.len());
         prop_assert_eq!(c.sequence.accepted + c.sequence.rejected(), c.decoder.frames);
         prop_assert_eq!(n_results, c.decoder.frames + c.decoder.errors());
-        let mut last: [Option<(u16, f64)>; 4] = [None; 4];
+        let mut last: [Option<(u16, f64)>; STREAMS] = [None; STREAMS];
         for f in &accepted {
             prop_assert!(intact.contains(f));
             let k = f.message.kind().stream_index();

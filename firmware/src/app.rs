@@ -1,13 +1,22 @@
 //! The application: link bytes in, estimates and status frames out, the engine in between.
 //!
 //! ```text
-//! bytes ─> Receiver ─┬─ Config    ─> (re)create Engine<f32>, reset the identifiers
+//! bytes ─> Receiver ─┬─ Config    ─> (re)create the engine, reset the identifiers
 //!                    ├─ ImuSample ─> ReplaySource ─> Engine::push_imu ─┐
 //!                    ├─ MasterNav ─> Engine::push_master ──────────────┼─> per master update:
-//!                    └─ End       ─> Engine::flush, final reports      │   Estimates every n-th,
+//!                    └─ End       ─> Engine::flush, final reports      │   Estimates (+ Effects)
+//!                                                                      │   every n-th,
 //!                                                                      │   Status every m-th,
 //!                                                                      └─> AR identifier (θ̂)
 //! ```
+//!
+//! Engine size: the Config's layout chooses it ([`BoardEngine`]). The declared model runs
+//! on `Engine<f32, 21>`, exactly as before augmentation existed (same code, same cost); a
+//! layout with effects runs on `Engine<f32, FIRMWARE_MAX_STATES>` (states past the layout
+//! are inert), so any layout of up to [`FIRMWARE_MAX_STATES`] states — e.g. time delay,
+//! lever-arm error and both scale factors — runs by configuration, with no code change. A
+//! larger layout is refused and counted ([`AppCounters::config_too_large`]). Both engines
+//! live in one enum inside the [`App`]: no heap.
 //!
 //! Host-testable: no heap, no panic, no hardware. The board loop (`src/board/`) feeds it
 //! the bytes of the USART and writes what it emits back to the USART; the host tests feed
@@ -26,12 +35,18 @@
 //! sampled after every master update. [`App::flexure_fit`] gives the BIC-selected AR order,
 //! coefficients and noise per axis; the board logs them at the end of the stream.
 
-use flexcal_core::engine::{Engine, ImuIncrement, MatchReport};
-use flexcal_core::ident::{ArIdentifier, Criterion};
-use flexcal_core::link::{
-    ConfigMsg, Encoder, EstimatesMsg, HealthFlags, LinkCounters, Message, Receiver, StatusMsg,
-    MAX_FRAME_LEN,
+use flexcal_core::augment::{Effect, MAX_EFFECTS};
+use flexcal_core::engine::{
+    Counters, EffectEstimate, Engine, EngineConfig, EngineError, Estimates, ImuIncrement,
+    MatchReport, StepReports,
 };
+use flexcal_core::ident::{ArIdentifier, Criterion};
+use flexcal_core::kalman::Health;
+use flexcal_core::link::{
+    ConfigMsg, EffectsMsg, Encoder, EstimatesMsg, HealthFlags, LinkCounters, Message, Receiver,
+    StatusMsg, MAX_FRAME_LEN,
+};
+use flexcal_core::model::N;
 
 use crate::imu::ImuSource;
 use crate::replay::ReplaySource;
@@ -39,13 +54,184 @@ use crate::replay::ReplaySource;
 /// Largest AR order the on-board flexure identifier fits.
 pub const IDENT_MAX_ORDER: usize = 2;
 
+/// Largest state dimension the board runs: the declared 21 states and up to 12 added
+/// ones (e.g. time delay 1 + lever-arm error 3 + gyro scale factor 3 + accel scale
+/// factor 3 = 10, or a 9-state block and a 3-state one = 12).
+pub const FIRMWARE_MAX_STATES: usize = 33;
+
+/// The board's engine, sized at Config time from the layout.
+#[derive(Clone, Debug)]
+// Both variants live in the App (no heap, so no box); the larger one sets its size.
+#[allow(clippy::large_enum_variant)]
+pub enum BoardEngine {
+    /// The declared model alone: 21 states, the engine the board always ran.
+    Declared(Engine<f32, N>),
+    /// A layout with effects: [`FIRMWARE_MAX_STATES`] states, those past the layout inert.
+    Augmented(Engine<f32, FIRMWARE_MAX_STATES>),
+}
+
+/// Why the board refused a Config.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ConfigRefused {
+    /// The layout needs more states than [`FIRMWARE_MAX_STATES`].
+    TooManyStates {
+        /// The layout's dimension (declared + added states).
+        states: usize,
+    },
+    /// The engine refused the configuration.
+    Engine(EngineError),
+}
+
+/// The same call on whichever engine is running.
+macro_rules! on_engine {
+    ($engine:expr, $e:ident => $body:expr) => {
+        match $engine {
+            BoardEngine::Declared($e) => $body,
+            BoardEngine::Augmented($e) => $body,
+        }
+    };
+}
+
+// The one-line dispatches below are `#[inline(always)]`: the App then calls each engine's
+// methods directly, as it did when it held one engine. Left to the size-optimized LTO
+// build, they were outlined, and LLVM then also outlined a `Zip::new` of two
+// `ChunksExact` in `model.rs` (`dyn_product`, `transition`), whose runtime chunk-size
+// division links a division-by-zero panic path (`firmware/check-no-panic.sh` catches it).
+impl BoardEngine {
+    /// Puts into `slot` the smallest engine that holds the configuration's layout: 21
+    /// states for the declared model, [`FIRMWARE_MAX_STATES`] for a layout with effects
+    /// (`slot` is emptied first, and stays empty when the configuration is refused).
+    ///
+    /// Each size is built by a function of its own (not inlined): the engine is large and
+    /// passes through temporaries on its way into `slot`, so one frame holding both sizes'
+    /// would make the declared model's configuration as deep as the largest layout's.
+    /// (Written as a `match`, not with `?`: measured, `?` kept a second engine-sized
+    /// temporary in the frame, 31 kB instead of 17 kB for the declared model.)
+    pub fn create(slot: &mut Option<Self>, cfg: EngineConfig<f32>) -> Result<(), ConfigRefused> {
+        *slot = None;
+        let states = cfg.augmentation.dimension();
+        if states > FIRMWARE_MAX_STATES {
+            return Err(ConfigRefused::TooManyStates { states });
+        }
+        if cfg.augmentation.is_empty() {
+            Self::create_declared(slot, cfg)
+        } else {
+            Self::create_augmented(slot, cfg)
+        }
+        .map_err(ConfigRefused::Engine)
+    }
+
+    #[inline(never)]
+    fn create_declared(slot: &mut Option<Self>, cfg: EngineConfig<f32>) -> Result<(), EngineError> {
+        match Engine::new(cfg) {
+            Ok(e) => {
+                *slot = Some(BoardEngine::Declared(e));
+                Ok(())
+            }
+            Err(e) => Err(e),
+        }
+    }
+
+    #[inline(never)]
+    fn create_augmented(
+        slot: &mut Option<Self>,
+        cfg: EngineConfig<f32>,
+    ) -> Result<(), EngineError> {
+        match Engine::new(cfg) {
+            Ok(e) => {
+                *slot = Some(BoardEngine::Augmented(e));
+                Ok(())
+            }
+            Err(e) => Err(e),
+        }
+    }
+
+    /// State dimension of the running engine.
+    #[inline(always)]
+    pub fn dimension(&self) -> usize {
+        match self {
+            BoardEngine::Declared(_) => N,
+            BoardEngine::Augmented(_) => FIRMWARE_MAX_STATES,
+        }
+    }
+
+    /// See [`Engine::push_imu`].
+    #[inline(always)]
+    pub fn push_imu(&mut self, s: ImuIncrement<f32>) -> Result<StepReports<f32>, EngineError> {
+        on_engine!(self, e => e.push_imu(s))
+    }
+
+    /// See [`Engine::push_master`].
+    #[inline(always)]
+    pub fn push_master(
+        &mut self,
+        m: flexcal_core::engine::MasterNav<f32>,
+    ) -> Result<StepReports<f32>, EngineError> {
+        on_engine!(self, e => e.push_master(m))
+    }
+
+    /// See [`Engine::flush`].
+    #[inline(always)]
+    pub fn flush(&mut self) -> StepReports<f32> {
+        on_engine!(self, e => e.flush())
+    }
+
+    /// See [`Engine::estimates`].
+    #[inline(always)]
+    pub fn estimates(&self) -> Estimates<f32> {
+        on_engine!(self, e => e.estimates())
+    }
+
+    /// See [`Engine::counters`].
+    #[inline(always)]
+    pub fn counters(&self) -> Counters {
+        on_engine!(self, e => e.counters())
+    }
+
+    /// See [`Engine::health`].
+    #[inline(always)]
+    pub fn health(&self) -> Health {
+        on_engine!(self, e => e.health())
+    }
+
+    /// See [`Engine::config`].
+    #[inline(always)]
+    pub fn config(&self) -> &EngineConfig<f32> {
+        on_engine!(self, e => e.config())
+    }
+
+    /// See [`Engine::effect_estimate`].
+    #[inline(always)]
+    pub fn effect_estimate(&self, effect: Effect) -> Option<EffectEstimate<f32>> {
+        on_engine!(self, e => e.effect_estimate(effect))
+    }
+
+    /// The estimates of every block of the layout, in state order (empty for the
+    /// declared model).
+    pub fn effect_estimates(&self) -> heapless::Vec<EffectEstimate<f32>, MAX_EFFECTS> {
+        let mut out = heapless::Vec::new();
+        if let BoardEngine::Augmented(e) = self {
+            for b in e.config().augmentation.blocks() {
+                if let Some(est) = e.effect_estimate(b.effect) {
+                    // Capacity MAX_EFFECTS, the most blocks a layout has: never full.
+                    let _ = out.push(est);
+                }
+            }
+        }
+        out
+    }
+}
+
 /// What the application refused, dropped or sent (each a wrapping `u32`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct AppCounters {
     /// Config messages that (re)created the engine.
     pub configs: u32,
-    /// Config messages the engine refused (it then has no engine until the next good one).
+    /// Config messages refused, by the engine or for their size (the board then has no
+    /// engine until the next good one).
     pub config_refused: u32,
+    /// Of those, Configs whose layout needs more than [`FIRMWARE_MAX_STATES`] states.
+    pub config_too_large: u32,
     /// IMU and master messages dropped because no engine was configured.
     pub no_engine: u32,
     /// IMU increments the engine refused (non-finite, time not increasing).
@@ -58,6 +244,8 @@ pub struct AppCounters {
     pub master_updates: u32,
     /// Estimates frames sent.
     pub estimates_sent: u32,
+    /// Effects frames sent (with each Estimates, when the layout carries effects).
+    pub effects_sent: u32,
     /// Status frames sent.
     pub status_sent: u32,
     /// Frames that could not be encoded (a non-finite estimate).
@@ -87,7 +275,7 @@ pub struct AxisFit {
 pub struct App {
     rx: Receiver,
     tx: Encoder,
-    engine: Option<Engine<f32>>,
+    engine: Option<BoardEngine>,
     config: Option<ConfigMsg>,
     replay: ReplaySource,
     ident: [ArIdentifier<f32, IDENT_MAX_ORDER>; 3],
@@ -172,7 +360,7 @@ impl App {
     }
 
     /// The engine, once configured.
-    pub fn engine(&self) -> Option<&Engine<f32>> {
+    pub fn engine(&self) -> Option<&BoardEngine> {
         self.engine.as_ref()
     }
 
@@ -189,9 +377,13 @@ impl App {
             engine: self
                 .engine
                 .as_ref()
-                .map(Engine::counters)
+                .map(BoardEngine::counters)
                 .unwrap_or_default(),
-            health: self.engine.as_ref().map(Engine::health).unwrap_or_default(),
+            health: self
+                .engine
+                .as_ref()
+                .map(BoardEngine::health)
+                .unwrap_or_default(),
         }
     }
 
@@ -200,6 +392,14 @@ impl App {
         let e = self.engine.as_ref()?;
         let flags = HealthFlags::from_engine(&e.health(), &e.counters());
         Some(EstimatesMsg::from_engine(&e.estimates(), flags))
+    }
+
+    /// Frame `page` of the Effects report as it would be sent now (`None` past the last
+    /// frame, for the declared model and before the first Config).
+    pub fn effects(&self, page: usize) -> Option<EffectsMsg> {
+        let e = self.engine.as_ref()?;
+        let t = e.estimates().t;
+        EffectsMsg::from_estimates(t, &e.effect_estimates(), page)
     }
 
     /// The flexure AR model identified so far on each axis of θ̂ (`None`: not enough data).
@@ -249,7 +449,7 @@ impl App {
                 }
             }
             Message::End(_) => self.end(out),
-            Message::Estimates(_) | Message::Status(_) => {
+            Message::Estimates(_) | Message::Status(_) | Message::Effects(_) => {
                 self.counters.unexpected = self.counters.unexpected.wrapping_add(1);
             }
         }
@@ -260,19 +460,33 @@ impl App {
         self.ident = [ArIdentifier::new(); 3];
         self.counters.master_updates = 0;
         self.ended = false;
-        match Engine::new(c.to_engine::<f32>()) {
-            Ok(e) => {
-                self.engine = Some(e);
+        self.config = None;
+        // The old engine goes first (`create` empties the slot): the new one takes its place.
+        match BoardEngine::create(&mut self.engine, c.to_engine::<f32>()) {
+            Ok(()) => {
+                if let Some(e) = self.engine.as_ref() {
+                    info!(
+                        "config: filter period {=f64} s, estimates every {=u16}, status every {=u16}, {=usize} states ({=usize} added), engine of {=usize}",
+                        c.filter_period_s,
+                        c.estimates_every,
+                        c.status_every,
+                        e.config().augmentation.dimension(),
+                        e.config().augmentation.states(),
+                        e.dimension()
+                    );
+                }
                 self.config = Some(*c);
                 self.counters.configs = self.counters.configs.wrapping_add(1);
-                info!(
-                    "config: filter period {=f64} s, estimates every {=u16}, status every {=u16}",
-                    c.filter_period_s, c.estimates_every, c.status_every
+            }
+            Err(ConfigRefused::TooManyStates { states }) => {
+                self.counters.config_refused = self.counters.config_refused.wrapping_add(1);
+                self.counters.config_too_large = self.counters.config_too_large.wrapping_add(1);
+                warn!(
+                    "config refused: its layout needs {=usize} states, the board holds {=usize}",
+                    states, FIRMWARE_MAX_STATES
                 );
             }
-            Err(_) => {
-                self.engine = None;
-                self.config = None;
+            Err(ConfigRefused::Engine(_)) => {
                 self.counters.config_refused = self.counters.config_refused.wrapping_add(1);
                 warn!("config refused by the engine");
             }
@@ -330,11 +544,26 @@ impl App {
         }
     }
 
+    /// Estimates, then (layouts with effects) the Effects frames of the same time.
     fn send_estimates<W: FnMut(&[u8])>(&mut self, out: &mut W) {
-        if let Some(m) = self.estimates() {
-            if self.send(&Message::Estimates(m), out) {
-                self.counters.estimates_sent = self.counters.estimates_sent.wrapping_add(1);
+        let Some(e) = self.engine.as_ref() else {
+            return;
+        };
+        let flags = HealthFlags::from_engine(&e.health(), &e.counters());
+        let est = e.estimates();
+        let blocks = e.effect_estimates();
+        if self.send(
+            &Message::Estimates(EstimatesMsg::from_engine(&est, flags)),
+            out,
+        ) {
+            self.counters.estimates_sent = self.counters.estimates_sent.wrapping_add(1);
+        }
+        let mut page = 0;
+        while let Some(m) = EffectsMsg::from_estimates(est.t, &blocks, page) {
+            if self.send(&Message::Effects(m), out) {
+                self.counters.effects_sent = self.counters.effects_sent.wrapping_add(1);
             }
+            page += 1;
         }
     }
 
@@ -377,6 +606,17 @@ mod tests {
     const EARTH_RATE: f64 = 7.292_115e-5;
 
     fn config(estimates_every: u16, status_every: u16) -> ConfigMsg {
+        config_with(estimates_every, status_every, &[])
+    }
+
+    /// The test configuration with the effects `effects` (default prior σ each).
+    fn config_with(estimates_every: u16, status_every: u16, effects: &[Effect]) -> ConfigMsg {
+        let mut augmentation = flexcal_core::augment::Augmentation::none();
+        for e in effects {
+            augmentation = augmentation
+                .with(*e, e.default_prior_sigma() as f32)
+                .unwrap();
+        }
         let cfg = EngineConfig::<f32> {
             filter_period_s: DT,
             matching: Matching {
@@ -417,7 +657,7 @@ mod tests {
             initial_misalignment_rad: Vector3::zeros(),
             gate_sigma: 5.0,
             variance_floor: 1e-9,
-            augmentation: flexcal_core::augment::Augmentation::none(),
+            augmentation,
             initial_delay_s: 0.0,
         };
         ConfigMsg::from_engine(&cfg, estimates_every, status_every)
@@ -673,10 +913,109 @@ mod tests {
         assert!(app.engine().is_none());
     }
 
+    /// A layout of 10 added states: time delay, lever-arm error, both scale factors.
+    const BOARD_LAYOUT: [Effect; 4] = [
+        Effect::TimeDelay,
+        Effect::LeverArmError,
+        Effect::GyroScaleFactor,
+        Effect::AccelScaleFactor,
+    ];
+
+    #[test]
+    fn augmented_layout_runs_by_configuration() {
+        let msgs = stream(800, config_with(1, 0, &BOARD_LAYOUT));
+        let (app, sent) = run_app(&encode_all(&msgs).concat());
+        let engine = app.engine().unwrap();
+        assert_eq!(engine.dimension(), FIRMWARE_MAX_STATES);
+        assert_eq!(engine.config().augmentation.dimension(), 31);
+        let c = app.counters();
+        assert_eq!((c.configs, c.config_refused, c.config_too_large), (1, 0, 0));
+        assert_eq!(
+            c.effects_sent, c.estimates_sent,
+            "one Effects frame (10 states) per Estimates"
+        );
+
+        // The same messages straight into Engine<f32, 33>: every report bit-identical.
+        let mut direct: Option<Engine<f32, FIRMWARE_MAX_STATES>> = None;
+        let mut want = std::vec::Vec::new();
+        for m in &msgs {
+            let reports = match m {
+                Message::Config(cfg) => {
+                    direct = Some(Engine::new(cfg.to_engine()).unwrap());
+                    continue;
+                }
+                Message::ImuSample(s) => direct.as_mut().unwrap().push_imu(s.to_engine()),
+                Message::MasterNav(s) => direct.as_mut().unwrap().push_master(s.to_engine()),
+                Message::End(_) => Ok(direct.as_mut().unwrap().flush()),
+                _ => continue,
+            };
+            let e = direct.as_ref().unwrap();
+            for _ in 0..reports.map_or(0, |r| r.len()) {
+                let blocks: std::vec::Vec<_> = BOARD_LAYOUT
+                    .iter()
+                    .map(|b| e.effect_estimate(*b).unwrap())
+                    .collect();
+                want.push(EffectsMsg::from_estimates(e.estimates().t, &blocks, 0).unwrap());
+            }
+        }
+        let got: std::vec::Vec<EffectsMsg> = sent
+            .iter()
+            .filter_map(|m| match m {
+                Message::Effects(e) => Some(*e),
+                _ => None,
+            })
+            .collect();
+        assert!(want.len() > 500, "{} updates", want.len());
+        assert_eq!(got.len(), want.len() + 1, "every update, and the final one");
+        assert_eq!(&got[..want.len()], &want[..]);
+        // Each Effects frame follows the Estimates of its time.
+        for (i, m) in sent.iter().enumerate() {
+            if let Message::Effects(e) = m {
+                match sent.get(i - 1) {
+                    Some(Message::Estimates(est)) => assert_eq!(est.t, e.t),
+                    other => panic!("Effects after {other:?}"),
+                }
+            }
+        }
+        let last = got.last().unwrap();
+        let (states, sigmas) = (last.value, last.sigma);
+        assert!(sigmas[..10].iter().all(|s| *s > 0.0) && sigmas[10..].iter().all(|s| *s == 0.0));
+        assert!(states.iter().all(|v| v.is_finite()));
+
+        // The declared model on the same App: back to the 21-state engine, no Effects.
+        let (app, sent) = run_app(&encode_all(&stream(50, config(1, 0))).concat());
+        assert_eq!(app.engine().unwrap().dimension(), 21);
+        assert_eq!(app.counters().effects_sent, 0);
+        assert!(!sent.iter().any(|m| matches!(m, Message::Effects(_))));
+    }
+
+    #[test]
+    fn too_large_layout_is_refused_and_counted() {
+        // 21 + 9 + 9 = 39 states: more than the board holds.
+        let big = config_with(1, 0, &[Effect::GyroGSensitivity, Effect::LeverArmCoupling]);
+        let mut msgs = stream(20, big);
+        msgs.truncate(8);
+        let (app, _) = run_app(&encode_all(&msgs).concat());
+        let c = app.counters();
+        assert_eq!((c.configs, c.config_refused, c.config_too_large), (0, 1, 1));
+        assert_eq!(c.no_engine, 7, "IMU and master messages without an engine");
+        assert!(app.engine().is_none());
+        // 21 + 9 + 3 = 33 fits.
+        let fits = config_with(1, 0, &[Effect::GyroGSensitivity, Effect::LeverArmError]);
+        let (app, _) = run_app(&encode_all(&stream(20, fits)).concat());
+        assert_eq!(app.counters().config_refused, 0);
+        assert_eq!(app.engine().unwrap().dimension(), FIRMWARE_MAX_STATES);
+    }
+
     #[test]
     fn app_state_size() {
         // Reported in docs/firmware.md; the board keeps one App.
         let n = core::mem::size_of::<App>();
         assert!(n < 48 * 1024, "App is {n} bytes");
+        std::eprintln!(
+            "App {n} bytes, BoardEngine {} bytes, Engine<f32, 21> {} bytes",
+            core::mem::size_of::<BoardEngine>(),
+            core::mem::size_of::<Engine<f32>>()
+        );
     }
 }

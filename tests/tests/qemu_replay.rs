@@ -3,7 +3,13 @@
 //! frames in and estimates out), compared with `flexcal calibrate --precision f32`.
 //!
 //! The image is built once into `target/qemu-replay` (its own target directory: a nested cargo
-//! must not wait on the lock of the cargo running these tests).
+//! must not wait on the lock of the cargo running these tests; `FLEXCAL_QEMU_TARGET_DIR`
+//! moves it elsewhere).
+//!
+//! Augmented layouts: a 60 s `paper` recording (200 ppm gyro and accel scale factors the
+//! declared model lacks) calibrated with `effects = ["gyro_scale_factor"]` by `flexcal
+//! replay --qemu` and by `calibrate --precision f32`'s library, from the same configuration
+//! file: the board's effect estimate, its σ and the usual estimates agree within 0.1 σ.
 //!
 //! Transports: the long recordings go through semihosting files (`Transport::Semihosting`),
 //! because QEMU's USART model takes one byte per main-loop turn (about 18 kB/s of wall time,
@@ -13,11 +19,13 @@
 //! `qemu-system-arm` missing is a failure, not a silent pass; set `FLEXCAL_SKIP_QEMU=1` to skip
 //! the QEMU tests on a machine without it (the host test still runs).
 
+use flexcal_core::augment::Effect;
 use flexcal_core::engine::Engine;
 use flexcal_core::link::{EstimatesMsg, HealthFlags, Message, Receiver, StatusMsg};
 use flexcal_firmware::app::App;
 use flexcal_sim::calib::config::CalibConfig;
 use flexcal_sim::calib::run::{run, CalibResult, Precision};
+use flexcal_sim::cmd::common::{ModelArgs, ScenarioArgs};
 use flexcal_sim::cmd::replay::{encode_frames, run_qemu, stream_messages, QemuRun, Transport};
 use flexcal_sim::recording::{read_recording, write_recording, Recording};
 use flexcal_sim::sim::{simulate, Scenario};
@@ -365,4 +373,123 @@ fn uart_link_with_faults_keeps_running_and_counts_them() {
     let e = last_estimates(&hurt);
     assert!(e.gyro_bias.iter().all(|v| v.is_finite()));
     assert!(st.engine.master_matched > 0);
+}
+
+/// The `paper` scenario simulated by `flexcal simulate` (which writes the declared model's
+/// `calibrate.toml` beside the recording), and a copy of that configuration with `effects`.
+fn paper_with_effects(duration_s: f64, dir: &Path, effects: &[Effect]) -> PathBuf {
+    let rec_dir = dir.join("rec");
+    flexcal_sim::cmd::simulate::run(&flexcal_sim::cmd::simulate::Args {
+        scenario: ScenarioArgs {
+            scenario: "paper".into(),
+            duration: Some(duration_s),
+            seed: 7,
+        },
+        out: rec_dir.clone(),
+    })
+    .expect("flexcal simulate");
+    let declared = std::fs::read_to_string(rec_dir.join("calibrate.toml")).expect("calibrate.toml");
+    let names: Vec<String> = effects
+        .iter()
+        .map(|e| format!("\"{}\"", e.name()))
+        .collect();
+    let line = format!("effects = [{}]", names.join(", "));
+    assert!(declared.contains("\neffects = []\n"), "{declared}");
+    let text = declared.replace("\neffects = []\n", &format!("\n{line}\n"));
+    let cfg_path = dir.join("augmented.toml");
+    std::fs::write(&cfg_path, text).expect("write config");
+    cfg_path
+}
+
+#[test]
+fn paper_gyro_scale_factor_in_qemu_matches_calibrate_f32() {
+    if !qemu_or_skip() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let cfg_path = paper_with_effects(60.0, dir.path(), &[Effect::GyroScaleFactor]);
+    let args = flexcal_sim::cmd::replay::Args {
+        rec_dir: dir.path().join("rec"),
+        qemu: true,
+        out: dir.path().join("q"),
+        elf: Some(image().to_path_buf()),
+        config: Some(cfg_path.clone()),
+        estimates_every: 1,
+        status_every: 1000,
+        transport: Transport::Semihosting,
+        icount: false,
+        timeout_s: QEMU_TIMEOUT.as_secs(),
+        model: ModelArgs {
+            no_dynamic_lever_arm: false,
+            identify_flexure: false,
+            effects: Vec::new(),
+        },
+    };
+    // `flexcal replay --qemu --config augmented.toml --transport semihosting`.
+    let r = flexcal_sim::cmd::replay::replay(&args).expect("flexcal replay");
+    flexcal_sim::cmd::replay::write_outputs(&args, &r).expect("replay outputs");
+    eprintln!(
+        "QEMU paper + gyro_scale_factor: {:.2} s wall",
+        r.qemu.wall.as_secs_f64()
+    );
+    assert_eq!(r.cfg.effects, ["gyro_scale_factor"]);
+    let st = last_status(&r.qemu);
+    assert_eq!(
+        st.link.decoder.frames as usize, r.frames_sent,
+        "no frame lost"
+    );
+    assert_eq!(st.link.decoder.errors(), 0);
+    assert_eq!(r.qemu.metric("config-refused"), Some(0));
+    assert_eq!(
+        r.qemu.metric("engine-states"),
+        Some(33),
+        "{}",
+        r.qemu.stdout
+    );
+
+    // `calibrate --precision f32`'s library on the same recording and configuration file.
+    let cfg = CalibConfig::load(&cfg_path).expect("config");
+    assert_eq!(cfg, r.cfg);
+    let reference = run(&r.rec, &cfg, Precision::F32).expect("calibrate f32");
+    assert_close(&at_reference_end(&r.qemu, &reference), &reference, 0.1);
+
+    // The effect: the board's report at the reference's last update, value and σ.
+    let want = reference.effect_rows.last().expect("reference effect rows");
+    assert_eq!(reference.effect_rows.len(), reference.rows.len());
+    let board = &r.result.effect_rows;
+    assert!(
+        board.len() >= reference.effect_rows.len(),
+        "{} board effect rows",
+        board.len()
+    );
+    let got = &board[reference.effect_rows.len() - 1];
+    assert_eq!((got.effect, got.t), (Effect::GyroScaleFactor, want.t));
+    for k in 0..3 {
+        let z = (got.value[k] - want.value[k]) / want.sigma[k];
+        let zs = (got.sigma[k] - want.sigma[k]) / want.sigma[k];
+        eprintln!(
+            "gyro scale factor [{k}]: board {:.4e} ± {:.3e}, calibrate {:.4e} ± {:.3e}: {z:.2e} σ, σ {zs:.2e}",
+            got.value[k], got.sigma[k], want.value[k], want.sigma[k]
+        );
+        assert!(z.abs() <= 0.1, "value [{k}]: {z} σ");
+        assert!(zs.abs() <= 0.1, "σ [{k}]: {zs} relative");
+    }
+    // The board's Wald statistic is Σ (value/σ)² (diagonal P); the scale factors are there.
+    let diag: f64 = (0..3)
+        .map(|k| (want.value[k] / want.sigma[k]).powi(2))
+        .sum();
+    assert!(
+        (got.wald - diag).abs() <= 0.1 * diag.max(1.0),
+        "{} vs {diag}",
+        got.wald
+    );
+    // And `flexcal replay`'s summary carries the effect.
+    let summary: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(args.out.join("summary.json")).expect("summary.json"),
+    )
+    .expect("json");
+    assert_eq!(
+        summary["effects"][0]["effect"], "gyro_scale_factor",
+        "{summary}"
+    );
 }

@@ -10,7 +10,7 @@
 
 use crate::link::cobs;
 use crate::link::crc32c::{crc32c, Crc32c};
-use crate::link::message::{Message, MessageKind, PayloadError};
+use crate::link::message::{EffectsError, Message, MessageKind, PayloadError};
 
 /// Bytes before the payload: type and sequence number.
 pub const HEADER_LEN: usize = 3;
@@ -56,6 +56,8 @@ pub enum EncodeError {
     NonFinite,
     /// A value is out of its domain (see [`PayloadError::BadValue`]).
     BadValue,
+    /// The augmentation of a Config, or an Effects layout, is invalid.
+    BadEffects(EffectsError),
 }
 
 /// Encodes one frame (both delimiters included) into the front of `out`; returns
@@ -65,6 +67,7 @@ pub fn encode(seq: u16, message: &Message, out: &mut [u8]) -> Result<usize, Enco
     match message.validate() {
         Ok(()) => {}
         Err(PayloadError::NonFinite) => return Err(EncodeError::NonFinite),
+        Err(PayloadError::BadEffects(e)) => return Err(EncodeError::BadEffects(e)),
         Err(_) => return Err(EncodeError::BadValue),
     }
     let needed = frame_len(message.kind());
@@ -157,6 +160,15 @@ pub enum DecodeError {
         /// The type byte.
         msg_type: u8,
     },
+    /// A good frame whose augmentation (Config) or layout (Effects) is refused: unknown
+    /// effect code, duplicate, more than `MAX_EFFECTS`, bad prior σ, stray slot bytes.
+    /// Counted with the bad values ([`DecoderCounters::bad_value`]).
+    BadEffects {
+        /// The type byte.
+        msg_type: u8,
+        /// What is wrong.
+        error: EffectsError,
+    },
 }
 
 /// What the decoder has seen, each a wrapping `u32`.
@@ -178,7 +190,7 @@ pub struct DecoderCounters {
     pub bad_length: u32,
     /// [`DecodeError::NonFinite`].
     pub non_finite: u32,
-    /// [`DecodeError::BadValue`].
+    /// [`DecodeError::BadValue`] and [`DecodeError::BadEffects`].
     pub bad_value: u32,
 }
 
@@ -211,7 +223,7 @@ impl DecoderCounters {
             DecodeError::UnknownType(_) => &mut self.unknown_type,
             DecodeError::BadLength { .. } => &mut self.bad_length,
             DecodeError::NonFinite { .. } => &mut self.non_finite,
-            DecodeError::BadValue { .. } => &mut self.bad_value,
+            DecodeError::BadValue { .. } | DecodeError::BadEffects { .. } => &mut self.bad_value,
         };
         *c = c.wrapping_add(1);
     }
@@ -332,7 +344,8 @@ impl Decoder {
         let message = Message::read_payload(kind, payload).map_err(|e| match e {
             PayloadError::NonFinite => DecodeError::NonFinite { msg_type },
             PayloadError::BadValue => DecodeError::BadValue { msg_type },
-            _ => DecodeError::BadLength {
+            PayloadError::BadEffects(error) => DecodeError::BadEffects { msg_type, error },
+            PayloadError::BadLength => DecodeError::BadLength {
                 msg_type,
                 len: payload.len(),
             },
@@ -406,8 +419,9 @@ mod tests {
         assert_eq!(frame_len(MessageKind::ImuSample), 42);
         assert_eq!(frame_len(MessageKind::Estimates), 116);
         assert_eq!(frame_len(MessageKind::Status), 138);
-        assert_eq!(frame_len(MessageKind::Config), 160);
+        assert_eq!(frame_len(MessageKind::Config), 185);
         assert_eq!(frame_len(MessageKind::End), 18);
+        assert_eq!(frame_len(MessageKind::Effects), 119);
         for k in MessageKind::ALL {
             assert!(k.payload_len() <= MAX_PAYLOAD_LEN);
         }

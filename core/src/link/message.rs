@@ -12,10 +12,11 @@
 //! Conventions are those of `recording-v1`: `n` is East-North-Up, body frames are
 //! right-forward-up, quaternions are Hamilton, scalar first, `q_b^n`.
 
+use crate::augment::{Augmentation, Effect, MAX_EFFECTS};
 use crate::earth::Position;
 use crate::engine::{
-    Counters, EngineConfig, Estimates, ImuIncrement, InitialSigma, MasterNav, Matching,
-    MeasurementNoise,
+    Counters, EffectEstimate, EngineConfig, Estimates, ImuIncrement, InitialSigma, MasterNav,
+    Matching, MeasurementNoise,
 };
 use crate::flexure::{ArAxis, FlexureModel};
 use crate::kalman::Health;
@@ -35,9 +36,15 @@ pub const ESTIMATES_LEN: usize = 106;
 /// Payload length of [`StatusMsg`].
 pub const STATUS_LEN: usize = 128;
 /// Payload length of [`ConfigMsg`].
-pub const CONFIG_LEN: usize = 150;
+pub const CONFIG_LEN: usize = 175;
 /// Payload length of [`EndMsg`].
 pub const END_LEN: usize = 8;
+/// Payload length of [`EffectsMsg`].
+pub const EFFECTS_LEN: usize = 109;
+/// Augmented states one [`EffectsMsg`] frame carries (the board's 12 added states fit one).
+pub const EFFECT_STATES_PER_FRAME: usize = 12;
+/// Bytes of one augmentation slot in a Config: effect code `u8`, prior σ `f32`.
+const EFFECT_SLOT_LEN: usize = 5;
 
 /// Largest allowed `| |q|² − 1 |` of a received quaternion (|q| within about 1e-6 of 1,
 /// as in `recording-v1`).
@@ -77,11 +84,13 @@ pub enum MessageKind {
     Estimates,
     /// `0x82`, board → host: link and engine counters.
     Status,
+    /// `0x83`, board → host: the estimates of the augmented effects (with Estimates).
+    Effects,
 }
 
 impl MessageKind {
     /// Number of kinds (and of sequence-number streams).
-    pub const COUNT: usize = 6;
+    pub const COUNT: usize = 7;
 
     /// Every kind, in stream-index order.
     pub const ALL: [MessageKind; Self::COUNT] = [
@@ -91,6 +100,7 @@ impl MessageKind {
         MessageKind::Status,
         MessageKind::Config,
         MessageKind::End,
+        MessageKind::Effects,
     ];
 
     /// The type byte on the wire.
@@ -102,6 +112,7 @@ impl MessageKind {
             MessageKind::End => 0x04,
             MessageKind::Estimates => 0x81,
             MessageKind::Status => 0x82,
+            MessageKind::Effects => 0x83,
         }
     }
 
@@ -114,6 +125,7 @@ impl MessageKind {
             0x04 => Some(MessageKind::End),
             0x81 => Some(MessageKind::Estimates),
             0x82 => Some(MessageKind::Status),
+            0x83 => Some(MessageKind::Effects),
             _ => None,
         }
     }
@@ -127,6 +139,7 @@ impl MessageKind {
             MessageKind::End => END_LEN,
             MessageKind::Estimates => ESTIMATES_LEN,
             MessageKind::Status => STATUS_LEN,
+            MessageKind::Effects => EFFECTS_LEN,
         }
     }
 
@@ -139,6 +152,7 @@ impl MessageKind {
             MessageKind::Status => 3,
             MessageKind::Config => 4,
             MessageKind::End => 5,
+            MessageKind::Effects => 6,
         }
     }
 }
@@ -274,9 +288,48 @@ pub struct StatusMsg {
     pub health: Health,
 }
 
-/// The engine configuration (type `0x03`, 150-byte payload): every field of
-/// [`EngineConfig`], plus how often the board reports. The board (re)creates its
-/// engine from it, so it runs exactly the model the desktop chose, with no code change.
+/// One block of the augmentation as a Config carries it: the effect and the prior σ of
+/// each of its states (SI unit of the effect, [`Effect::unit`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EffectPrior {
+    /// The effect (on the wire: [`Effect::code`]).
+    pub effect: Effect,
+    /// Prior σ of each of its states, > 0 and finite.
+    pub prior_sigma: f32,
+}
+
+/// Why the augmentation part of a Config or an Effects message is refused
+/// ([`PayloadError::BadEffects`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EffectsError {
+    /// The Config's block count is above [`MAX_EFFECTS`].
+    TooMany {
+        /// The count received.
+        count: u8,
+    },
+    /// A code that is no [`Effect::code`].
+    UnknownCode {
+        /// The code received.
+        code: u8,
+    },
+    /// The same effect twice in one layout.
+    Duplicate {
+        /// Its code.
+        code: u8,
+    },
+    /// A prior σ that is not a positive finite number (zero, negative, NaN, ±∞).
+    BadPrior {
+        /// The effect's code.
+        code: u8,
+    },
+    /// A block after an empty slot, or an unused slot whose bytes are not all zero.
+    UnusedSlot,
+}
+
+/// The engine configuration (type `0x03`, 175-byte payload): every field of
+/// [`EngineConfig`], the augmentation included, plus how often the board reports. The
+/// board (re)creates its engine from it, so it runs exactly the model the desktop chose
+/// (a layout recommended by `flexcal diagnose` too), with no code change.
 ///
 /// Floats are `f32` (the board's precision: `T::of` of an `f64` configuration value
 /// rounds to the same `f32` on the desktop's `f32` engine), except the periods, which
@@ -319,6 +372,12 @@ pub struct ConfigMsg {
     /// The board sends Status after every `status_every`-th master update
     /// (0: only at the end of the stream).
     pub status_every: u16,
+    /// The augmentation ([`EngineConfig::augmentation`]): the blocks appended after the
+    /// declared 21 states, in state order, then `None`s. Each effect at most once.
+    pub effects: [Option<EffectPrior>; MAX_EFFECTS],
+    /// Starting value of the master delay (s, |τ| ≤ `MAX_DELAY_S`) when the layout
+    /// carries `time_delay` ([`EngineConfig::initial_delay_s`]).
+    pub initial_delay_s: f32,
 }
 
 impl ConfigMsg {
@@ -361,7 +420,31 @@ impl ConfigMsg {
             variance_floor: f(c.variance_floor),
             estimates_every,
             status_every,
+            effects: {
+                let mut e = [None; MAX_EFFECTS];
+                for (slot, b) in e.iter_mut().zip(c.augmentation.blocks()) {
+                    *slot = Some(EffectPrior {
+                        effect: b.effect,
+                        prior_sigma: f(b.prior_sigma),
+                    });
+                }
+                e
+            },
+            initial_delay_s: c.initial_delay_s as f32,
         }
+    }
+
+    /// The augmentation in precision `T`. Exact for every message that passes
+    /// [`Message::validate`] (every decoded one); of an invalid one, the blocks the layout
+    /// refuses are left out.
+    pub fn augmentation<T: Real>(&self) -> Augmentation<T> {
+        let mut aug = Augmentation::none();
+        for e in self.effects.iter().map_while(|e| e.as_ref()) {
+            if let Ok(a) = aug.with(e.effect, T::of(f64::from(e.prior_sigma))) {
+                aug = a;
+            }
+        }
+        aug
     }
 
     /// The engine configuration.
@@ -406,8 +489,8 @@ impl ConfigMsg {
             initial_misalignment_rad: from_f32s(&self.initial_misalignment_rad),
             gate_sigma: c(self.gate_sigma),
             variance_floor: c(self.variance_floor),
-            augmentation: crate::augment::Augmentation::none(),
-            initial_delay_s: 0.0,
+            augmentation: self.augmentation(),
+            initial_delay_s: f64::from(self.initial_delay_s),
         }
     }
 
@@ -435,7 +518,100 @@ impl ConfigMsg {
             .chain(self.initial_sigma.iter())
             .chain(self.initial_misalignment_rad.iter())
             .copied()
-            .chain([self.gate_sigma, self.variance_floor])
+            .chain([self.gate_sigma, self.variance_floor, self.initial_delay_s])
+    }
+}
+
+/// The augmented effects' estimates (type `0x83`, 109-byte payload), sent by the board
+/// right after each Estimates when its layout carries effects.
+///
+/// Compact and of fixed length: the layout's added states (in state order, block after
+/// block, as in the filter) are cut into pages of [`EFFECT_STATES_PER_FRAME`]; frame `page`
+/// carries states `12·page ..` with their σ, zeros past the layout's last state. The
+/// board's largest layout (12 added states) is one frame per report; the largest the link
+/// allows (4 blocks of 9) is three. Every frame names the whole layout, so it is
+/// understood without the Config; the frames of one report share `t`, the time of the
+/// Estimates they go with. [`EffectsMsg::states`] maps a frame's slots back to
+/// (effect, state of the block).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EffectsMsg {
+    /// Time of the latest filter update (s), as in the Estimates sent just before.
+    pub t: f64,
+    /// The layout: the effects in state order, then `None`s (at least one effect).
+    pub layout: [Option<Effect>; MAX_EFFECTS],
+    /// Which page of the layout's states this frame carries, `< frames(layout)`.
+    pub page: u8,
+    /// The states' estimates (SI unit of their effect); 0 past the layout's last state.
+    pub value: [f32; EFFECT_STATES_PER_FRAME],
+    /// Their standard deviations (≥ 0); 0 past the layout's last state.
+    pub sigma: [f32; EFFECT_STATES_PER_FRAME],
+}
+
+impl EffectsMsg {
+    /// Number of added states of a layout.
+    pub fn layout_states(layout: &[Option<Effect>; MAX_EFFECTS]) -> usize {
+        layout.iter().flatten().map(|e| e.states()).sum()
+    }
+
+    /// Number of Effects frames a report of this layout takes (0 for no effect).
+    pub fn frames(layout: &[Option<Effect>; MAX_EFFECTS]) -> usize {
+        Self::layout_states(layout).div_ceil(EFFECT_STATES_PER_FRAME)
+    }
+
+    /// Frame `page` of the report of `blocks` (the engine's
+    /// [`effect_estimate`](crate::engine::Engine::effect_estimate) of each block of the
+    /// layout, in state order; at most [`MAX_EFFECTS`] are used), rounded to `f32`.
+    /// `None` when `page` is past the report's last frame.
+    pub fn from_estimates<T: Real>(
+        t: f64,
+        blocks: &[EffectEstimate<T>],
+        page: usize,
+    ) -> Option<Self> {
+        let mut layout = [None; MAX_EFFECTS];
+        for (slot, b) in layout.iter_mut().zip(blocks) {
+            *slot = Some(b.effect);
+        }
+        if page >= Self::frames(&layout) {
+            return None;
+        }
+        let mut m = Self {
+            t,
+            layout,
+            page: u8::try_from(page).ok()?,
+            value: [0.0; EFFECT_STATES_PER_FRAME],
+            sigma: [0.0; EFFECT_STATES_PER_FRAME],
+        };
+        let first = page * EFFECT_STATES_PER_FRAME;
+        let states = blocks.iter().take(MAX_EFFECTS).flat_map(|b| {
+            b.value
+                .iter()
+                .zip(b.sigma.iter())
+                .take(b.effect.states())
+                .map(|(v, s)| (v.to_f64() as f32, s.to_f64() as f32))
+        });
+        for ((v, s), (dv, ds)) in states
+            .skip(first)
+            .zip(m.value.iter_mut().zip(m.sigma.iter_mut()))
+        {
+            *dv = v;
+            *ds = s;
+        }
+        Some(m)
+    }
+
+    /// The states this frame carries: `(effect, index of the state within its block,
+    /// value, σ)`, in state order.
+    pub fn states(&self) -> impl Iterator<Item = (Effect, usize, f32, f32)> + '_ {
+        let first = usize::from(self.page) * EFFECT_STATES_PER_FRAME;
+        self.layout
+            .iter()
+            .flatten()
+            .flat_map(|e| (0..e.states()).map(move |k| (*e, k)))
+            .enumerate()
+            .filter_map(move |(g, (e, k))| {
+                let j = g.checked_sub(first)?;
+                Some((e, k, *self.value.get(j)?, *self.sigma.get(j)?))
+            })
     }
 }
 
@@ -462,6 +638,8 @@ pub enum Message {
     Config(ConfigMsg),
     /// See [`EndMsg`].
     End(EndMsg),
+    /// See [`EffectsMsg`].
+    Effects(EffectsMsg),
 }
 
 /// Why a payload is refused (on encoding as on decoding).
@@ -475,6 +653,8 @@ pub enum PayloadError {
     /// A value is out of its domain: non-unit quaternion, latitude beyond ±π/2,
     /// negative σ, unknown MasterNav flag bits, rate bytes set while the rate is absent.
     BadValue,
+    /// The augmentation of a Config, or the layout of an Effects message, is refused.
+    BadEffects(EffectsError),
 }
 
 impl Message {
@@ -487,6 +667,7 @@ impl Message {
             Message::Status(_) => MessageKind::Status,
             Message::Config(_) => MessageKind::Config,
             Message::End(_) => MessageKind::End,
+            Message::Effects(_) => MessageKind::Effects,
         }
     }
 
@@ -499,6 +680,7 @@ impl Message {
             Message::Status(m) => m.t,
             Message::Config(m) => m.t,
             Message::End(m) => m.t,
+            Message::Effects(m) => m.t,
         }
     }
 
@@ -556,6 +738,18 @@ impl Message {
                 }
             }
             Message::Config(m) => {
+                // The augmentation first: a non-finite prior is a bad prior, like zero.
+                check_layout(m.effects.map(|e| e.map(|p| p.effect)))?;
+                if let Some(p) = m
+                    .effects
+                    .iter()
+                    .flatten()
+                    .find(|p| !(p.prior_sigma > 0.0 && p.prior_sigma.is_finite()))
+                {
+                    return Err(PayloadError::BadEffects(EffectsError::BadPrior {
+                        code: p.effect.code(),
+                    }));
+                }
                 let finite = finite64(&[m.t, m.filter_period_s, m.flexure_period_s])
                     && m.floats32().all(f32::is_finite);
                 if !finite {
@@ -569,7 +763,8 @@ impl Message {
                     && m.filter_period_s > 0.0
                     && m.flexure_period_s > 0.0
                     && m.gate_sigma > 0.0
-                    && m.variance_floor >= 0.0)
+                    && m.variance_floor >= 0.0
+                    && f64::from(m.initial_delay_s).abs() <= crate::engine::MAX_DELAY_S)
                 {
                     return Err(PayloadError::BadValue);
                 }
@@ -581,6 +776,26 @@ impl Message {
                 } else {
                     Err(PayloadError::NonFinite)
                 }
+            }
+            Message::Effects(m) => {
+                check_layout(m.layout)?;
+                if !(m.t.is_finite() && finite32(&m.value) && finite32(&m.sigma)) {
+                    return Err(PayloadError::NonFinite);
+                }
+                let frames = EffectsMsg::frames(&m.layout);
+                let used = EffectsMsg::layout_states(&m.layout)
+                    .saturating_sub(usize::from(m.page) * EFFECT_STATES_PER_FRAME);
+                let unused_zero = m
+                    .value
+                    .iter()
+                    .zip(m.sigma.iter())
+                    .skip(used)
+                    .all(|(v, s)| *v == 0.0 && *s == 0.0);
+                if usize::from(m.page) >= frames || m.sigma.iter().any(|s| *s < 0.0) || !unused_zero
+                {
+                    return Err(PayloadError::BadValue);
+                }
+                Ok(())
             }
         }
     }
@@ -656,9 +871,30 @@ impl Message {
                 w.f32(m.variance_floor)?;
                 w.bytes(m.estimates_every.to_le_bytes())?;
                 w.bytes(m.status_every.to_le_bytes())?;
+                let count = m.effects.iter().take_while(|e| e.is_some()).count();
+                w.u8(u8::try_from(count).ok()?)?;
+                for slot in &m.effects {
+                    match slot {
+                        Some(e) => {
+                            w.u8(e.effect.code())?;
+                            w.f32(e.prior_sigma)?;
+                        }
+                        None => w.bytes([0u8; EFFECT_SLOT_LEN])?,
+                    }
+                }
+                w.f32(m.initial_delay_s)?;
             }
             Message::End(m) => {
                 w.f64(m.t)?;
+            }
+            Message::Effects(m) => {
+                w.f64(m.t)?;
+                for e in &m.layout {
+                    w.u8(e.map_or(0, Effect::code))?;
+                }
+                w.u8(m.page)?;
+                w.f32s(&m.value)?;
+                w.f32s(&m.sigma)?;
             }
         }
         Some(w.len)
@@ -741,6 +977,46 @@ impl Message {
                 if flags & !CFG_ALL != 0 {
                     return Some(Err(PayloadError::BadValue));
                 }
+                let lever_arm_m = r.f32s()?;
+                let flexure_period_s = r.f64()?;
+                let flexure = [r.f32s()?, r.f32s()?, r.f32s()?];
+                let process_noise = r.f32s()?;
+                let measurement_noise = r.f32s()?;
+                let initial_sigma = r.f32s()?;
+                let initial_misalignment_rad = r.f32s()?;
+                let gate_sigma = r.f32()?;
+                let variance_floor = r.f32()?;
+                let estimates_every = u16::from_le_bytes(r.bytes()?);
+                let status_every = u16::from_le_bytes(r.bytes()?);
+                let count = r.u8()?;
+                if usize::from(count) > MAX_EFFECTS {
+                    return Some(Err(PayloadError::BadEffects(EffectsError::TooMany {
+                        count,
+                    })));
+                }
+                let mut effects = [None; MAX_EFFECTS];
+                for (i, slot) in effects.iter_mut().enumerate() {
+                    let code = r.u8()?;
+                    let prior_sigma = r.f32()?;
+                    if i < usize::from(count) {
+                        match Effect::from_code(code) {
+                            Some(effect) => {
+                                *slot = Some(EffectPrior {
+                                    effect,
+                                    prior_sigma,
+                                })
+                            }
+                            None => {
+                                return Some(Err(PayloadError::BadEffects(
+                                    EffectsError::UnknownCode { code },
+                                )))
+                            }
+                        }
+                    } else if code != 0 || prior_sigma.to_bits() != 0 {
+                        return Some(Err(PayloadError::BadEffects(EffectsError::UnusedSlot)));
+                    }
+                }
+                let initial_delay_s = r.f32()?;
                 Message::Config(ConfigMsg {
                     t,
                     filter_period_s,
@@ -751,20 +1027,46 @@ impl Message {
                     },
                     dynamic_lever_arm: flags & CFG_DYNAMIC_LEVER_ARM != 0,
                     bending,
-                    lever_arm_m: r.f32s()?,
-                    flexure_period_s: r.f64()?,
-                    flexure: [r.f32s()?, r.f32s()?, r.f32s()?],
-                    process_noise: r.f32s()?,
-                    measurement_noise: r.f32s()?,
-                    initial_sigma: r.f32s()?,
-                    initial_misalignment_rad: r.f32s()?,
-                    gate_sigma: r.f32()?,
-                    variance_floor: r.f32()?,
-                    estimates_every: u16::from_le_bytes(r.bytes()?),
-                    status_every: u16::from_le_bytes(r.bytes()?),
+                    lever_arm_m,
+                    flexure_period_s,
+                    flexure,
+                    process_noise,
+                    measurement_noise,
+                    initial_sigma,
+                    initial_misalignment_rad,
+                    gate_sigma,
+                    variance_floor,
+                    estimates_every,
+                    status_every,
+                    effects,
+                    initial_delay_s,
                 })
             }
             MessageKind::End => Message::End(EndMsg { t: r.f64()? }),
+            MessageKind::Effects => {
+                let t = r.f64()?;
+                let mut layout = [None; MAX_EFFECTS];
+                for slot in layout.iter_mut() {
+                    let code = r.u8()?;
+                    if code != 0 {
+                        match Effect::from_code(code) {
+                            Some(e) => *slot = Some(e),
+                            None => {
+                                return Some(Err(PayloadError::BadEffects(
+                                    EffectsError::UnknownCode { code },
+                                )))
+                            }
+                        }
+                    }
+                }
+                Message::Effects(EffectsMsg {
+                    t,
+                    layout,
+                    page: r.u8()?,
+                    value: r.f32s()?,
+                    sigma: r.f32s()?,
+                })
+            }
         };
         if r.rest.is_empty() {
             Some(Ok(msg))
@@ -954,6 +1256,25 @@ fn status_from_counters(t: f64, c: &[u32; STATUS_COUNTERS]) -> StatusMsg {
             bad_innovation_variance,
         },
     }
+}
+
+/// A layout is effects in state order, then empty slots, each effect at most once.
+fn check_layout(layout: [Option<Effect>; MAX_EFFECTS]) -> Result<(), PayloadError> {
+    let mut ended = false;
+    for (i, slot) in layout.iter().enumerate() {
+        match slot {
+            None => ended = true,
+            Some(_) if ended => return Err(PayloadError::BadEffects(EffectsError::UnusedSlot)),
+            Some(e) => {
+                if layout.iter().take(i).flatten().any(|p| p == e) {
+                    return Err(PayloadError::BadEffects(EffectsError::Duplicate {
+                        code: e.code(),
+                    }));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 fn finite64(x: &[f64]) -> bool {
@@ -1259,6 +1580,19 @@ mod tests {
             variance_floor: 1e-9,
             estimates_every: 10,
             status_every: 100,
+            effects: [
+                Some(EffectPrior {
+                    effect: Effect::TimeDelay,
+                    prior_sigma: 0.2,
+                }),
+                Some(EffectPrior {
+                    effect: Effect::GyroScaleFactor,
+                    prior_sigma: 1e-3,
+                }),
+                None,
+                None,
+            ],
+            initial_delay_s: 0.02,
         }
     }
 
@@ -1285,7 +1619,14 @@ mod tests {
         assert_eq!(f32_at(&b, 138), 5.0);
         assert_eq!(f32_at(&b, 142), 1e-9);
         assert_eq!(&b[146..150], &[10, 0, 100, 0]);
-        assert_eq!(b[150], 0xAA, "nothing written past the payload");
+        assert_eq!(b[150], 2, "two effects");
+        assert_eq!(b[151], Effect::TimeDelay.code());
+        assert_eq!(f32_at(&b, 152), 0.2);
+        assert_eq!(b[156], Effect::GyroScaleFactor.code());
+        assert_eq!(f32_at(&b, 157), 1e-3);
+        assert!(b[161..171].iter().all(|x| *x == 0), "unused slots are zero");
+        assert_eq!(f32_at(&b, 171), 0.02, "initial delay");
+        assert_eq!(b[175], 0xAA, "nothing written past the payload");
         let back = Message::read_payload(MessageKind::Config, &b[..n]).unwrap();
         assert_eq!(back, Message::Config(m));
 
@@ -1312,9 +1653,83 @@ mod tests {
     }
 
     #[test]
+    fn config_augmentation_refusals() {
+        let m = config();
+        let (b, n) = payload(&Message::Config(m));
+        let read = |b: &[u8]| Message::read_payload(MessageKind::Config, b);
+        let bad = |e| Err(PayloadError::BadEffects(e));
+        let mut x = b;
+        x[150] = 5; // more blocks than MAX_EFFECTS
+        assert_eq!(read(&x[..n]), bad(EffectsError::TooMany { count: 5 }));
+        let mut x = b;
+        x[156] = 0; // code 0 in a used slot
+        assert_eq!(read(&x[..n]), bad(EffectsError::UnknownCode { code: 0 }));
+        let mut x = b;
+        x[156] = 42;
+        assert_eq!(read(&x[..n]), bad(EffectsError::UnknownCode { code: 42 }));
+        let mut x = b;
+        x[156] = Effect::TimeDelay.code();
+        let dup = EffectsError::Duplicate {
+            code: Effect::TimeDelay.code(),
+        };
+        assert_eq!(read(&x[..n]), bad(dup));
+        let prior = EffectsError::BadPrior {
+            code: Effect::GyroScaleFactor.code(),
+        };
+        for p in [0.0f32, -0.0, -1e-3, f32::NAN, f32::INFINITY] {
+            let mut x = b;
+            x[157..161].copy_from_slice(&p.to_le_bytes());
+            assert_eq!(read(&x[..n]), bad(prior), "prior {p}");
+        }
+        let mut x = b;
+        x[150] = 1; // the second block's bytes are now an unused slot, not zero
+        assert_eq!(read(&x[..n]), bad(EffectsError::UnusedSlot));
+        let mut x = b;
+        x[170] = 1; // stray byte in the last, unused slot
+        assert_eq!(read(&x[..n]), bad(EffectsError::UnusedSlot));
+        // A block after an empty slot cannot be encoded.
+        let mut gap = m;
+        gap.effects = [m.effects[0], None, m.effects[1], None];
+        assert_eq!(
+            Message::Config(gap).validate(),
+            Err(PayloadError::BadEffects(EffectsError::UnusedSlot))
+        );
+        // Four blocks, the most a layout holds, are fine; no block at all too.
+        let mut four = m;
+        four.effects = [
+            Effect::LeverArmCoupling,
+            Effect::GyroGSensitivity,
+            Effect::AccelMisalignment,
+            Effect::LeverArmError,
+        ]
+        .map(|effect| {
+            Some(EffectPrior {
+                effect,
+                prior_sigma: 0.5,
+            })
+        });
+        let (b4, n4) = payload(&Message::Config(four));
+        assert_eq!(read(&b4[..n4]), Ok(Message::Config(four)));
+        assert_eq!(four.augmentation::<f32>().dimension(), 21 + 9 + 9 + 3 + 3);
+        let mut none = m;
+        none.effects = [None; MAX_EFFECTS];
+        let (b0, n0) = payload(&Message::Config(none));
+        assert!(b0[150..171].iter().all(|x| *x == 0));
+        assert_eq!(read(&b0[..n0]), Ok(Message::Config(none)));
+        assert!(none.augmentation::<f64>().is_empty());
+    }
+
+    #[test]
     fn config_engine_round_trip() {
         let m = config();
         let e: EngineConfig<f32> = m.to_engine();
+        assert_eq!(e.augmentation.offset(Effect::TimeDelay), Some(21));
+        assert_eq!(e.augmentation.offset(Effect::GyroScaleFactor), Some(22));
+        assert_eq!(e.augmentation.dimension(), 25);
+        let priors: [f32; 2] = [0.2, 1e-3];
+        for (b, p) in e.augmentation.blocks().zip(priors) {
+            assert_eq!(b.prior_sigma, p);
+        }
         assert_eq!(e.filter_period_s, 0.01);
         assert_eq!(e.flexure.axes[1].a2, -0.9);
         assert_eq!(e.bending, LeverBending::UniformArc);
@@ -1331,6 +1746,130 @@ mod tests {
         let mut back = ConfigMsg::from_engine(&e64, 10, 100);
         back.t = m.t;
         assert_eq!(back, m, "f32 -> f64 -> f32 is exact");
+    }
+
+    fn effect_estimate(effect: Effect, base: f32) -> EffectEstimate<f32> {
+        let mut e = EffectEstimate {
+            effect,
+            value: [0.0; 9],
+            sigma: [0.0; 9],
+        };
+        for k in 0..effect.states() {
+            e.value[k] = base + k as f32;
+            e.sigma[k] = 0.5 * (base + k as f32);
+        }
+        e
+    }
+
+    type StateEntry = (Effect, usize, f32, f32);
+
+    fn collect_states(it: impl Iterator<Item = StateEntry>) -> ([StateEntry; 40], usize) {
+        let mut out = [(Effect::TimeDelay, 99, 0.0, 0.0); 40];
+        let mut n = 0;
+        for e in it {
+            out[n] = e;
+            n += 1;
+        }
+        (out, n)
+    }
+
+    #[test]
+    fn effects_layout_and_pages() {
+        let blocks = [
+            effect_estimate(Effect::TimeDelay, 1.0),
+            effect_estimate(Effect::LeverArmError, 10.0),
+            effect_estimate(Effect::GyroScaleFactor, 20.0),
+            effect_estimate(Effect::AccelScaleFactor, 30.0),
+        ];
+        // 1 + 3 + 3 + 3 = 10 states: one frame, the board's case.
+        let m = EffectsMsg::from_estimates(4.5, &blocks, 0).unwrap();
+        assert!(EffectsMsg::from_estimates(4.5, &blocks, 1).is_none());
+        assert_eq!(EffectsMsg::frames(&m.layout), 1);
+        let (b, n) = payload(&Message::Effects(m));
+        assert_eq!(n, EFFECTS_LEN);
+        assert_eq!(f64_at(&b, 0), 4.5);
+        assert_eq!(&b[8..12], &[5, 6, 1, 3], "codes in state order");
+        assert_eq!(b[12], 0, "page");
+        assert_eq!(f32_at(&b, 13), 1.0, "time delay");
+        assert_eq!(f32_at(&b, 17), 10.0, "lever arm x");
+        assert_eq!(f32_at(&b, 13 + 4 * 9), 32.0, "accel scale factor z");
+        assert_eq!(f32_at(&b, 13 + 4 * 10), 0.0, "past the layout");
+        assert_eq!(f32_at(&b, 61), 0.5, "σ of the time delay");
+        assert_eq!(f32_at(&b, 61 + 4 * 9), 16.0);
+        assert_eq!(b[109], 0xAA, "nothing written past the payload");
+        let back = Message::read_payload(MessageKind::Effects, &b[..n]).unwrap();
+        assert_eq!(back, Message::Effects(m));
+        let (states, len) = collect_states(m.states());
+        assert_eq!(len, 10);
+        assert_eq!(states[0], (Effect::TimeDelay, 0, 1.0, 0.5));
+        assert_eq!(states[3], (Effect::LeverArmError, 2, 12.0, 6.0));
+        assert_eq!(states[9], (Effect::AccelScaleFactor, 2, 32.0, 16.0));
+
+        // 9 + 9 + 3 = 21 states: two frames, the second carries states 12..21.
+        let big = [
+            effect_estimate(Effect::GyroGSensitivity, 100.0),
+            effect_estimate(Effect::LeverArmCoupling, 200.0),
+            effect_estimate(Effect::GyroMisalignment, 300.0),
+        ];
+        let p0 = EffectsMsg::from_estimates(1.0, &big, 0).unwrap();
+        let p1 = EffectsMsg::from_estimates(1.0, &big, 1).unwrap();
+        assert!(EffectsMsg::from_estimates(1.0, &big, 2).is_none());
+        let (all, len) = collect_states(p0.states().chain(p1.states()));
+        assert_eq!(len, 21);
+        assert_eq!(all[11], (Effect::LeverArmCoupling, 2, 202.0, 101.0));
+        assert_eq!(all[12], (Effect::LeverArmCoupling, 3, 203.0, 101.5));
+        assert_eq!(all[20], (Effect::GyroMisalignment, 2, 302.0, 151.0));
+        assert_eq!(p1.value[9], 0.0);
+        for p in [p0, p1] {
+            assert_eq!(Message::Effects(p).validate(), Ok(()));
+        }
+        assert!(EffectsMsg::from_estimates::<f32>(1.0, &[], 0).is_none());
+    }
+
+    #[test]
+    fn effects_refusals() {
+        let blocks = [effect_estimate(Effect::GyroScaleFactor, 1.0)];
+        let m = EffectsMsg::from_estimates(2.0, &blocks, 0).unwrap();
+        let (b, n) = payload(&Message::Effects(m));
+        let read = |b: &[u8]| Message::read_payload(MessageKind::Effects, b);
+        let mut x = b;
+        x[9] = 99;
+        assert_eq!(
+            read(&x[..n]),
+            Err(PayloadError::BadEffects(EffectsError::UnknownCode {
+                code: 99
+            }))
+        );
+        let mut x = b;
+        x[9] = Effect::GyroScaleFactor.code();
+        assert_eq!(
+            read(&x[..n]),
+            Err(PayloadError::BadEffects(EffectsError::Duplicate {
+                code: Effect::GyroScaleFactor.code()
+            }))
+        );
+        let mut x = b;
+        x[8] = 0; // a block after an empty slot
+        x[9] = Effect::GyroScaleFactor.code();
+        assert_eq!(
+            read(&x[..n]),
+            Err(PayloadError::BadEffects(EffectsError::UnusedSlot))
+        );
+        let mut x = b;
+        x[8] = 0; // no block at all
+        assert_eq!(read(&x[..n]), Err(PayloadError::BadValue));
+        let mut x = b;
+        x[12] = 1; // page past the layout's only frame
+        assert_eq!(read(&x[..n]), Err(PayloadError::BadValue));
+        let mut x = b;
+        x[13 + 12..13 + 16].copy_from_slice(&1.0f32.to_le_bytes()); // state 3: past the block
+        assert_eq!(read(&x[..n]), Err(PayloadError::BadValue));
+        let mut x = b;
+        x[61..65].copy_from_slice(&(-1.0f32).to_le_bytes()); // negative σ
+        assert_eq!(read(&x[..n]), Err(PayloadError::BadValue));
+        let mut x = b;
+        x[13..17].copy_from_slice(&f32::NAN.to_le_bytes());
+        assert_eq!(read(&x[..n]), Err(PayloadError::NonFinite));
     }
 
     #[test]

@@ -36,8 +36,8 @@ pub use codec::{
     MAX_FRAME_LEN, MAX_PAYLOAD_LEN,
 };
 pub use message::{
-    ConfigMsg, EndMsg, EstimatesMsg, HealthFlags, ImuSampleMsg, MasterNavMsg, Message, MessageKind,
-    StatusMsg,
+    ConfigMsg, EffectPrior, EffectsError, EffectsMsg, EndMsg, EstimatesMsg, HealthFlags,
+    ImuSampleMsg, MasterNavMsg, Message, MessageKind, StatusMsg, EFFECT_STATES_PER_FRAME,
 };
 pub use receiver::{LinkCounters, LinkError, Received, Receiver};
 pub use sequence::{SequenceCounters, SequenceError, SequenceTracker, TimeRule};

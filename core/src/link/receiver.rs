@@ -63,6 +63,7 @@ impl Receiver {
                 SequenceTracker::new(Self::rule(MessageKind::ALL[3])),
                 SequenceTracker::new(Self::rule(MessageKind::ALL[4])),
                 SequenceTracker::new(Self::rule(MessageKind::ALL[5])),
+                SequenceTracker::new(Self::rule(MessageKind::ALL[6])),
             ],
         }
     }
@@ -74,7 +75,8 @@ impl Receiver {
             MessageKind::Estimates
             | MessageKind::Status
             | MessageKind::Config
-            | MessageKind::End => TimeRule::Unchecked,
+            | MessageKind::End
+            | MessageKind::Effects => TimeRule::Unchecked,
         }
     }
 
@@ -149,7 +151,10 @@ mod tests {
     #[test]
     fn state_is_small() {
         assert!(core::mem::size_of::<Decoder>() <= 320);
-        assert!(core::mem::size_of::<Receiver>() <= 720);
+        assert!(
+            core::mem::size_of::<Receiver>() <= 800,
+            "seven stream trackers"
+        );
     }
 
     #[test]

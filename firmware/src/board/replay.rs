@@ -194,13 +194,21 @@ fn serve<P: Port>(port: &mut P, syst: Option<SYST>) -> ! {
         }
     }
     defmt::info!(
-        "replay end: {=u32} master updates, {=u32} estimates, {=u32} status, {=u32} frames, {=u32} refused",
+        "replay end: {=u32} master updates, {=u32} estimates, {=u32} effects, {=u32} status, {=u32} frames, {=u32} refused",
         c.master_updates,
         c.estimates_sent,
+        c.effects_sent,
         c.status_sent,
         link.decoder.frames,
         link.decoder.errors()
     );
+    if c.config_too_large != 0 {
+        defmt::warn!(
+            "{=u32} config(s) refused: layout larger than the board's {=usize} states",
+            c.config_too_large,
+            flexcal_firmware::app::FIRMWARE_MAX_STATES
+        );
+    }
     semihost::line("flexcal-firmware replay ok");
     semihost::line_kv("bytes", bytes);
     semihost::line_kv("frames", u64::from(link.decoder.frames));
@@ -209,6 +217,13 @@ fn serve<P: Port>(port: &mut P, syst: Option<SYST>) -> ! {
     semihost::line_kv("imu-refused", u64::from(c.imu_refused));
     semihost::line_kv("master-refused", u64::from(c.master_refused));
     semihost::line_kv("config-refused", u64::from(c.config_refused));
+    semihost::line_kv("config-too-large", u64::from(c.config_too_large));
+    // State dimension of the engine that ran (21: declared model; 33: a layout with effects).
+    semihost::line_kv(
+        "engine-states",
+        app.engine().map_or(0, |e| e.dimension() as u64),
+    );
+    semihost::line_kv("effects-sent", u64::from(c.effects_sent));
     semihost::line_kv("no-engine", u64::from(c.no_engine));
     semihost::line_kv("uart-overruns", u64::from(port.overruns()));
     for fit in app.flexure_fit() {

@@ -8,20 +8,25 @@
 //! Status frames on the same line, and exits at End. The outputs are those of `calibrate`
 //! (`summary.json` with `"precision": "f32"` and `"runner": "qemu"`, `estimates.csv`).
 //!
+//! Augmented layouts (`effects` in the configuration) travel in the Config; the board then
+//! sends an Effects report after each Estimates, and the result carries the effects' rows
+//! ([`CalibResult::effect_rows`]) like `calibrate`'s, so augmented runs compare too.
+//!
 //! Transport: QEMU connects its `-serial` to a TCP socket this process listens on. QEMU only
 //! reads a byte from the socket when the emulated USART's receive register is free, so the
 //! sender is held back by TCP flow control and no byte is lost (the Status counters prove it:
 //! every frame sent is counted as received).
 
 use crate::calib::config::CalibConfig;
-use crate::calib::run::{CalibResult, CovarianceCheck, EstimateRow, Precision};
+use crate::calib::run::{CalibResult, CovarianceCheck, EffectRow, EstimateRow, Precision};
 use crate::cmd::calibrate::{choose_flexure, resolve_config};
 use crate::cmd::common::ModelArgs;
 use crate::recording::{read_recording, Recording};
 use crate::report::summary;
+use flexcal_core::augment::{Effect, MAX_EFFECTS};
 use flexcal_core::link::{
-    ConfigMsg, EndMsg, EstimatesMsg, ImuSampleMsg, MasterNavMsg, Message, Receiver, StatusMsg,
-    MAX_FRAME_LEN,
+    ConfigMsg, EffectsMsg, EndMsg, EstimatesMsg, ImuSampleMsg, MasterNavMsg, Message, Receiver,
+    StatusMsg, MAX_FRAME_LEN,
 };
 use nalgebra::SMatrix;
 use std::io::{Read, Write};
@@ -181,6 +186,17 @@ impl QemuRun {
             .iter()
             .filter_map(|m| match m {
                 Message::Estimates(e) => Some(*e),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// The Effects messages received.
+    pub fn effects(&self) -> Vec<EffectsMsg> {
+        self.received
+            .iter()
+            .filter_map(|m| match m {
+                Message::Effects(e) => Some(*e),
                 _ => None,
             })
             .collect()
@@ -429,14 +445,89 @@ pub fn rows(estimates: &[EstimatesMsg]) -> Vec<EstimateRow> {
         .collect()
 }
 
-/// A `CalibResult` from what the board sent: the rows, the counters of its last Status, the
+/// One Effects report: every block of the layout at one time.
+type EffectsReport = Vec<EffectRow>;
+
+/// The board's Effects frames reassembled into reports, one per Estimates, each with one
+/// row per block in state order. A report is complete when every page of its layout has
+/// arrived with the same time and layout; an incomplete one (a lost frame) is skipped.
+///
+/// `wald` of a board row is `Σ (value/σ)²` over the block: the board sends each state's σ
+/// but not the block's off-diagonal covariance, so this is the Wald statistic
+/// `x̂ᵀ P⁻¹ x̂` of `calibrate` with P taken diagonal (the same for a one-state block such
+/// as `time_delay`; for a larger block it ignores the correlations between its states).
+pub fn effect_reports(msgs: &[EffectsMsg]) -> Vec<EffectsReport> {
+    /// A report being gathered: its time and layout, its states so far, pages seen.
+    struct Open {
+        t: f64,
+        layout: [Option<Effect>; MAX_EFFECTS],
+        states: Vec<(f32, f32)>,
+        pages: usize,
+    }
+    let mut out = Vec::new();
+    let mut open: Option<Open> = None;
+    for m in msgs {
+        let next = open
+            .as_ref()
+            .is_some_and(|o| o.t == m.t && o.layout == m.layout && o.pages == usize::from(m.page));
+        if !next {
+            // A new report starts at its first page; anything else is a fragment.
+            open = (m.page == 0).then(|| Open {
+                t: m.t,
+                layout: m.layout,
+                states: Vec::new(),
+                pages: 0,
+            });
+        }
+        let Some(o) = open.as_mut() else {
+            continue;
+        };
+        o.states.extend(m.states().map(|(_, _, v, s)| (v, s)));
+        o.pages += 1;
+        if o.pages < EffectsMsg::frames(&m.layout) {
+            continue;
+        }
+        let mut rows = Vec::new();
+        let mut at = 0;
+        for effect in o.layout.iter().flatten() {
+            let k = effect.states();
+            let block = o.states.get(at..at + k).unwrap_or(&[]);
+            at += k;
+            let value: Vec<f64> = block.iter().map(|(v, _)| f64::from(*v)).collect();
+            let sigma: Vec<f64> = block.iter().map(|(_, s)| f64::from(*s)).collect();
+            let wald = value
+                .iter()
+                .zip(&sigma)
+                .map(|(v, s)| (v / s) * (v / s))
+                .sum();
+            rows.push(EffectRow {
+                t: o.t,
+                effect: *effect,
+                value,
+                sigma,
+                wald,
+            });
+        }
+        out.push(rows);
+        open = None;
+    }
+    out
+}
+
+/// A `CalibResult` from what the board sent: the rows, the effects' rows (layouts with
+/// effects; `wald` as [`effect_reports`] says), the counters of its last Status, the
 /// diagonal of the final covariance from the σ (the board sends no innovations and no
 /// off-diagonal covariance).
 pub fn result_from_board(run: &QemuRun) -> Result<CalibResult, String> {
     let mut est = run.estimates();
-    // The final Estimates repeats the last update's (sent again at End): keep one.
+    let mut effects = effect_reports(&run.effects());
+    // The final Estimates repeats the last update's (sent again at End): keep one, and
+    // the same for the Effects report that goes with it.
     if est.len() >= 2 && est[est.len() - 1] == est[est.len() - 2] {
         est.pop();
+        if effects.len() >= 2 && effects[effects.len() - 1] == effects[effects.len() - 2] {
+            effects.pop();
+        }
     }
     let rows = rows(&est);
     let status = run
@@ -459,12 +550,30 @@ pub fn result_from_board(run: &QemuRun) -> Result<CalibResult, String> {
         covariance: CovarianceCheck::default(),
         final_cov9,
         precision: Precision::F32,
-        effect_rows: Vec::new(),
+        effect_rows: effects.into_iter().flatten().collect(),
     })
 }
 
-/// Runs `flexcal replay`.
-pub fn run(a: &Args) -> Result<(), String> {
+/// What `flexcal replay` did, before its outputs are written.
+pub struct Replayed {
+    /// The recording.
+    pub rec: Recording,
+    /// The configuration as resolved (and the flexure model as chosen).
+    pub cfg: CalibConfig,
+    /// Where the flexure model came from.
+    pub flexure_source: String,
+    /// Frames sent to the board.
+    pub frames_sent: usize,
+    /// The QEMU run.
+    pub qemu: QemuRun,
+    /// The board's results as `calibrate`'s (effects' rows included).
+    pub result: CalibResult,
+}
+
+/// `flexcal replay` up to its outputs: resolves the configuration as `calibrate` does,
+/// streams the recording through the firmware in QEMU and gathers what it sent. Fails if
+/// the firmware does.
+pub fn replay(a: &Args) -> Result<Replayed, String> {
     if !a.qemu {
         return Err("replay needs a runner: only `--qemu` exists".into());
     }
@@ -496,9 +605,42 @@ pub fn run(a: &Args) -> Result<(), String> {
             qemu.exit_code, qemu.stdout
         ));
     }
-    let res = result_from_board(&qemu)?;
+    if qemu.metric("config-refused").is_some_and(|n| n > 0) {
+        let dim = cfg.augmentation::<f64>().map_or(0, |a| a.dimension());
+        return Err(if qemu.metric("config-too-large").is_some_and(|n| n > 0) {
+            format!(
+                "the board refused the configuration: its layout ({}) needs {dim} states, \
+                 more than the firmware holds (`FIRMWARE_MAX_STATES`, firmware/src/app.rs)",
+                cfg.effects.join(", ")
+            )
+        } else {
+            "the board's engine refused the configuration".to_string()
+        });
+    }
+    let result = result_from_board(&qemu)?;
+    Ok(Replayed {
+        rec,
+        cfg,
+        flexure_source,
+        frames_sent: frames.len(),
+        qemu,
+        result,
+    })
+}
+
+/// Runs `flexcal replay`.
+pub fn run(a: &Args) -> Result<(), String> {
+    let r = replay(a)?;
+    write_outputs(a, &r)
+}
+
+/// Writes `summary.json` and `estimates.csv` of a replay into `a.out` and prints the
+/// summary line; fails if frames were lost on the way to the board.
+pub fn write_outputs(a: &Args, r: &Replayed) -> Result<(), String> {
+    let (rec, cfg, flexure_source, qemu, res) =
+        (&r.rec, &r.cfg, &r.flexure_source, &r.qemu, &r.result);
     let status = qemu.last_status().ok_or("no Status")?;
-    let sent_frames = frames.len() as u32;
+    let sent_frames = r.frames_sent as u32;
     let lost = sent_frames.wrapping_sub(status.link.decoder.frames);
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
     let duration = match rec.imu.last() {
@@ -508,9 +650,9 @@ pub fn run(a: &Args) -> Result<(), String> {
     let mut doc = summary::summary_json(
         &a.rec_dir.display().to_string(),
         duration,
-        &cfg,
-        &flexure_source,
-        &res,
+        cfg,
+        flexure_source,
+        res,
         None,
     );
     if let Some(obj) = doc.as_object_mut() {
@@ -534,6 +676,24 @@ pub fn run(a: &Args) -> Result<(), String> {
                 "frame_errors_from_board": qemu.rx_errors,
             }),
         );
+        if !res.effect_rows.is_empty() && !obj.contains_key("effects") {
+            // The board's last estimate of each effect (`wald` with a diagonal P).
+            let effects: Vec<serde_json::Value> = res
+                .final_effects()
+                .iter()
+                .map(|r| {
+                    serde_json::json!({
+                        "effect": r.effect.name(),
+                        "unit": r.effect.unit(),
+                        "value": r.value,
+                        "sigma": r.sigma,
+                        "wald": r.wald,
+                        "wald_covariance": "diagonal",
+                    })
+                })
+                .collect();
+            obj.insert("effects".into(), serde_json::json!(effects));
+        }
         obj.insert(
             "qemu".into(),
             serde_json::json!({
@@ -558,8 +718,69 @@ pub fn run(a: &Args) -> Result<(), String> {
         qemu.wall.as_secs_f64(),
         a.out.display()
     );
+    for r in res.final_effects() {
+        println!(
+            "  {} ({}): {:?} ± {:?}",
+            r.effect.name(),
+            r.effect.unit(),
+            r.value,
+            r.sigma
+        );
+    }
     if lost != 0 {
         return Err(format!("{lost} frames were lost on the way to the board"));
     }
     Ok(())
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::indexing_slicing)]
+mod tests {
+    use super::*;
+    use flexcal_core::engine::EffectEstimate;
+
+    fn block(effect: Effect, base: f64) -> EffectEstimate<f64> {
+        let mut b = EffectEstimate {
+            effect,
+            value: [0.0; 9],
+            sigma: [0.0; 9],
+        };
+        for k in 0..effect.states() {
+            b.value[k] = base + k as f64;
+            b.sigma[k] = 0.5;
+        }
+        b
+    }
+
+    fn pages(t: f64, blocks: &[EffectEstimate<f64>]) -> Vec<EffectsMsg> {
+        (0..)
+            .map_while(|p| EffectsMsg::from_estimates(t, blocks, p))
+            .collect()
+    }
+
+    #[test]
+    fn effects_frames_reassemble_into_reports() {
+        // 9 + 9 + 1 = 19 states: two frames per report.
+        let blocks = [
+            block(Effect::GyroGSensitivity, 1.0),
+            block(Effect::LeverArmCoupling, 10.0),
+            block(Effect::TimeDelay, -2.0),
+        ];
+        let mut msgs = pages(1.0, &blocks);
+        assert_eq!(msgs.len(), 2);
+        // A report that lost its first frame, then a whole one.
+        msgs.push(pages(2.0, &blocks)[1]);
+        msgs.extend(pages(3.0, &blocks));
+        let reports = effect_reports(&msgs);
+        assert_eq!(reports.len(), 2, "the fragment is skipped");
+        let r = &reports[1];
+        assert_eq!(r.len(), 3);
+        assert_eq!((r[0].t, r[0].effect), (3.0, Effect::GyroGSensitivity));
+        assert_eq!(r[1].value, (10..19).map(f64::from).collect::<Vec<_>>());
+        assert_eq!(r[2].value, [-2.0]);
+        assert_eq!(r[2].sigma, [0.5]);
+        assert_eq!(r[2].wald, 16.0, "(−2 / 0.5)²");
+        let want: f64 = (1..10).map(|v| (f64::from(v) / 0.5).powi(2)).sum();
+        assert!((r[0].wald - want).abs() < 1e-9 * want);
+    }
 }

@@ -34,6 +34,8 @@ pub struct Holdout {
     pub channels: Vec<HoldoutChannel>,
     /// Mean NIS of the innovations after the freeze.
     pub nis_mean: f64,
+    /// −2 log-likelihood of the innovations after the freeze (up to a constant).
+    pub neg2ll: f64,
 }
 
 /// A model and what it gives on the recording.
@@ -145,10 +147,15 @@ pub fn holdout(rec: &Recording, cfg: &CalibConfig, fraction: f64) -> Result<Hold
             .sum::<f64>()
             / after.len() as f64
     };
+    let neg2ll = after
+        .iter()
+        .map(|i| i.variance.ln() + i.value * i.value / i.variance)
+        .sum();
     Ok(Holdout {
         freeze_at_s,
         channels,
         nis_mean,
+        neg2ll,
     })
 }
 

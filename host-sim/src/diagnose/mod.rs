@@ -8,10 +8,13 @@
 //!    end (χ²(k) if the effect is absent, k its number of states) and the drop of the
 //!    innovations' −2 log-likelihood (the likelihood ratio, which also pays the prior's
 //!    Occam factor). A candidate is significant when both exceed the χ²(k) quantile at
-//!    `alpha / (budget × candidates)`: Bonferroni over every test the loop may make, so
-//!    the chance of reporting any effect on a complete model is at most `alpha`.
-//! 3. Add the significant candidate whose likelihood ratio exceeds its threshold most,
-//!    and repeat until none is significant or `budget` effects are in.
+//!    `alpha / (budget × candidates)` (Bonferroni over every test the loop may make, so
+//!    the chance of reporting any effect on a complete model is at most `alpha`) and
+//!    its estimate exceeds the effect's resolution floor (`Effect::resolution_floor`).
+//! 3. Of the significant, add the one whose likelihood ratio exceeds its threshold most,
+//!    provided it removes at least half of the residuals' structure (when they have
+//!    any) and predicts the held-out part better; repeat until none qualifies or
+//!    `budget` effects are in.
 //! 4. Whatever structure the final residuals still show (NIS out of band, Ljung-Box
 //!    whiteness rejected) is reported as unexplained, with its dominant period.
 //!
@@ -27,6 +30,34 @@ use crate::recording::Recording;
 use evaluate::{evaluate_model, ModelEval};
 use flexcal_core::augment::{Effect, MAX_EFFECTS};
 use flexcal_core::stats::chi2_isf;
+
+/// An effect added where the residuals show structure must leave at most this fraction
+/// of the structure statistic (`structure_statistic`): a named effect explains what it
+/// is named for. An effect outside the candidates is partly absorbed by several of them,
+/// none of which removes it.
+pub const EXPLAINED_FRACTION_LEFT: f64 = 0.5;
+
+/// The structure left in residuals: summed over the channel axes, the Ljung-Box
+/// statistic of the whitened innovations beyond its critical value at family-wise level
+/// `alpha` (0 when every axis is white). Whiteness, not the NIS level: an effect the
+/// model lacks leaves correlated innovations, while a NIS off 1 may only mean the
+/// declared noise is off (which no candidate effect fixes).
+pub fn structure_statistic(
+    residuals: &[crate::calib::residuals::ChannelResidual],
+    alpha: f64,
+) -> f64 {
+    let a = alpha / residuals.len().max(1) as f64;
+    let q_crit = flexcal_core::stats::chi2_isf(a, crate::calib::residuals::LAGS as f64);
+    residuals
+        .iter()
+        .filter(|r| r.ljung_box_q.is_finite())
+        .map(|r| (r.ljung_box_q - q_crit).max(0.0))
+        .sum()
+}
+
+/// An estimate beyond this many prior σ (`Effect::default_prior_sigma`) in any state
+/// is not taken for the effect (prior-data conflict).
+pub const PLAUSIBLE_PRIORS: f64 = 3.0;
 
 /// What the diagnosis may do.
 #[derive(Clone, Debug)]
@@ -103,6 +134,12 @@ pub struct CandidateTest {
     pub estimate: Vec<f64>,
     /// Their σ.
     pub sigma: Vec<f64>,
+    /// The structure statistic of the residuals with it added (`structure_statistic`).
+    pub structure_after: f64,
+    /// Drop of the held-out innovations' −2 log-likelihood (calibration frozen after the
+    /// held-out fraction) when it is added; computed for significant candidates only.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub holdout_likelihood_ratio: Option<f64>,
     /// Why it could not be tested, when it could not.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
@@ -113,6 +150,8 @@ pub struct CandidateTest {
 pub struct Round {
     /// Effects in the model this round tested against.
     pub model: Vec<&'static str>,
+    /// The structure statistic of that model's residuals.
+    pub structure: f64,
     /// The tests, in candidate order.
     pub tests: Vec<CandidateTest>,
     /// The effect added, if any.
@@ -129,8 +168,91 @@ pub struct Diagnosis {
     pub rounds: Vec<Round>,
     /// Added effects with the test that added them, in order.
     pub found: Vec<CandidateTest>,
+    /// Measurement noise corrected before the search (empty when none was overstated).
+    pub noise: Vec<NoiseCorrection>,
     /// The options used.
     pub options: Options,
+}
+
+/// Passes of the noise correction at most.
+const NOISE_PASSES: usize = 3;
+
+/// A measurement noise the declared model overstated, corrected before the search.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct NoiseCorrection {
+    /// The configuration key.
+    pub key: &'static str,
+    /// Declared σ.
+    pub declared: f64,
+    /// σ used for the search.
+    pub corrected: f64,
+    /// The channel's mean NIS with the declared σ.
+    pub declared_nis: f64,
+}
+
+/// Scales down the measurement noise of every channel whose mean NIS is below its band
+/// (at family-wise `alpha`): a missing effect adds to the innovations and cannot make
+/// them smaller than predicted, so a NIS below its band says the declared noise is too
+/// large, which hides effects from every test. σ is scaled by √NIS, a few passes. A NIS
+/// above its band is left alone: that is what the search explains.
+fn correct_noise(
+    rec: &Recording,
+    declared: &ModelEval,
+    alpha: f64,
+    fraction: f64,
+) -> Result<(ModelEval, Vec<NoiseCorrection>), String> {
+    let mut current = declared.clone();
+    let mut changed: Vec<NoiseCorrection> = Vec::new();
+    for _ in 0..NOISE_PASSES {
+        let mut cfg = current.cfg.clone();
+        let mut any = false;
+        for (channel, key) in [
+            ("velocity", "velocity_noise_mps"),
+            ("attitude", "attitude_noise_rad"),
+            ("angular_rate", "rate_noise_radps"),
+        ] {
+            let axes: Vec<_> = current
+                .residuals
+                .iter()
+                .filter(|r| r.channel == channel)
+                .collect();
+            let n: usize = axes.iter().map(|r| r.count).sum();
+            if n == 0 {
+                continue;
+            }
+            let nis = axes
+                .iter()
+                .map(|r| r.nis_mean * r.count as f64)
+                .sum::<f64>()
+                / n as f64;
+            let lower = flexcal_core::stats::chi2_quantile(alpha / 3.0, n as f64) / n as f64;
+            if nis >= lower {
+                continue;
+            }
+            let sigma = match key {
+                "velocity_noise_mps" => &mut cfg.velocity_noise_mps,
+                "attitude_noise_rad" => &mut cfg.attitude_noise_rad,
+                _ => &mut cfg.rate_noise_radps,
+            };
+            let declared_sigma = *sigma;
+            *sigma *= nis.sqrt();
+            any = true;
+            match changed.iter_mut().find(|c| c.key == key) {
+                Some(c) => c.corrected = *sigma,
+                None => changed.push(NoiseCorrection {
+                    key,
+                    declared: declared_sigma,
+                    corrected: *sigma,
+                    declared_nis: nis,
+                }),
+            }
+        }
+        if !any {
+            break;
+        }
+        current = evaluate_model(rec, &cfg, fraction)?;
+    }
+    Ok((current, changed))
 }
 
 /// Runs the diagnosis of a recording with its declared configuration.
@@ -141,7 +263,7 @@ pub fn diagnose(
 ) -> Result<Diagnosis, String> {
     opts.validate()?;
     let before = evaluate_model(rec, declared, opts.holdout_fraction)?;
-    let mut current = before.clone();
+    let (mut current, noise) = correct_noise(rec, &before, opts.alpha, opts.holdout_fraction)?;
     let mut rounds = Vec::new();
     let mut found = Vec::new();
     while found.len() < opts.budget {
@@ -157,7 +279,7 @@ pub fn diagnose(
         }
         let runs = evaluate::run_candidates(rec, &current, &untried)?;
         let mut tests = Vec::new();
-        let mut best: Option<(f64, usize)> = None;
+        let mut ranked: Vec<(f64, usize)> = Vec::new();
         for (k, (effect, outcome)) in untried.iter().zip(runs.iter()).enumerate() {
             let dof = effect.states();
             let threshold = opts.threshold(dof);
@@ -172,14 +294,21 @@ pub fn diagnose(
                         .map(|r| (r.wald, r.value, r.sigma))
                         .unwrap_or((f64::NAN, Vec::new(), Vec::new()));
                     let lr = current.neg2ll - run.neg2ll;
-                    let significant = wald > threshold && lr > threshold;
+                    let above_floor = estimate.iter().any(|v| v.abs() > effect.resolution_floor());
+                    // An estimate beyond PLAUSIBLE_PRIORS prior σ is not a value of this
+                    // effect (prior-data conflict): the structure is something else,
+                    // absorbed by the block (a 400 °/h/g "g-sensitivity" fitting a wave).
+                    let plausible = estimate
+                        .iter()
+                        .all(|v| v.abs() <= PLAUSIBLE_PRIORS * effect.default_prior_sigma());
+                    let significant =
+                        wald > threshold && lr > threshold && above_floor && plausible;
                     // Among the significant, the one whose likelihood gains most over its
                     // threshold: with several candidates explaining the same signature
                     // (an accelerometer scale factor and a lever-arm error both act on
                     // the lever arm's accelerations), the better fit is the better name.
-                    let excess = lr - threshold;
-                    if significant && best.is_none_or(|(b, _)| excess > b) {
-                        best = Some((excess, k));
+                    if significant {
+                        ranked.push((lr - threshold, k));
                     }
                     CandidateTest {
                         effect: effect.name(),
@@ -190,6 +319,8 @@ pub fn diagnose(
                         significant,
                         estimate,
                         sigma,
+                        structure_after: structure_statistic(&run.residuals, opts.alpha),
+                        holdout_likelihood_ratio: None,
                         error: None,
                     }
                 }
@@ -202,15 +333,40 @@ pub fn diagnose(
                     significant: false,
                     estimate: Vec::new(),
                     sigma: Vec::new(),
+                    structure_after: f64::NAN,
+                    holdout_likelihood_ratio: None,
                     error: Some(e.clone()),
                 },
             };
             tests.push(test);
         }
+        // The held-out check decides between the significant: frozen after the held-out
+        // fraction, the added effect must predict the rest of the recording better. An
+        // effect the candidates lack, absorbed by one of them over the whole record, does
+        // not (`docs/diagnosis.md`); a real one does.
+        ranked.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let base_holdout = current.holdout.as_ref().map(|h| h.neg2ll);
+        let base_structure = structure_statistic(&current.residuals, opts.alpha);
+        let mut best = None;
+        for &(_, k) in &ranked {
+            let (Some(Ok(run)), Some(test)) = (runs.get(k), tests.get_mut(k)) else {
+                continue;
+            };
+            let h = evaluate::holdout(rec, &run.cfg, opts.holdout_fraction)?;
+            let gain = base_holdout.map_or(f64::NAN, |b| b - h.neg2ll);
+            test.holdout_likelihood_ratio = Some(gain);
+            // Where the residuals show structure, the effect must explain most of it.
+            let explains = base_structure <= 0.0
+                || test.structure_after <= EXPLAINED_FRACTION_LEFT * base_structure;
+            if gain > 0.0 && explains && best.is_none() {
+                best = Some((k, h));
+            }
+        }
         let model: Vec<&'static str> = present.blocks().map(|b| b.effect.name()).collect();
-        let Some((_, k)) = best else {
+        let Some((k, chosen_holdout)) = best else {
             rounds.push(Round {
                 model,
+                structure: base_structure,
                 tests,
                 added: None,
             });
@@ -222,10 +378,14 @@ pub fn diagnose(
         let test = tests.get(k).cloned();
         rounds.push(Round {
             model,
+            structure: base_structure,
             tests,
             added: Some(effect.name()),
         });
-        current = evaluate::with_holdout(rec, run, opts.holdout_fraction)?;
+        current = ModelEval {
+            holdout: Some(chosen_holdout),
+            ..run
+        };
         found.extend(test);
     }
     Ok(Diagnosis {
@@ -233,6 +393,7 @@ pub fn diagnose(
         after: current,
         rounds,
         found,
+        noise,
         options: opts.clone(),
     })
 }

@@ -180,6 +180,7 @@ pub fn diagnosis_json(d: &Diagnosis, rec_label: &str, rec: &Recording, command: 
         "command": command,
         "effects_found": d.found.iter().map(|t| found_json(t, truth)).collect::<Vec<_>>(),
         "unexplained_structure": left,
+        "noise_corrected": d.noise,
         "before": model_json(rec_label, rec, &d.before),
         "after": model_json(rec_label, rec, &d.after),
         "search": {
@@ -187,10 +188,16 @@ pub fn diagnosis_json(d: &Diagnosis, rec_label: &str, rec: &Recording, command: 
             "budget": d.options.budget,
             "alpha": d.options.alpha,
             "tests": d.options.budget * d.options.candidates.len(),
-            "rule": "a candidate is significant when the Wald statistic of its block and the likelihood ratio both exceed the chi-square(dof) quantile at alpha / tests; the significant one whose likelihood ratio exceeds its threshold most is added",
+            "rule": "a candidate is significant when the Wald statistic of its block and the likelihood ratio both exceed the chi-square(dof) quantile at alpha / tests; of the significant, the one whose likelihood ratio exceeds its threshold most and whose held-out likelihood ratio is positive is added",
             "rounds": d.rounds,
         },
-        "recommended_config": { "effects": d.after.cfg.effects, "initial_delay_s": d.after.cfg.initial_delay_s },
+        "recommended_config": {
+            "effects": d.after.cfg.effects,
+            "initial_delay_s": d.after.cfg.initial_delay_s,
+            "velocity_noise_mps": d.after.cfg.velocity_noise_mps,
+            "attitude_noise_rad": d.after.cfg.attitude_noise_rad,
+            "rate_noise_radps": d.after.cfg.rate_noise_radps,
+        },
     })
 }
 
@@ -222,11 +229,28 @@ pub fn report_md(d: &Diagnosis, rec_label: &str, rec: &Recording, command: &str)
     let _ = writeln!(s, "Command: `{command}`\n");
     let _ = writeln!(
         s,
-        "Rule: an effect is added when the Wald statistic of its block and the drop of the innovations' −2 log-likelihood both exceed the χ²(k) quantile at α / (budget × candidates) = {} / ({} × {}); the chance of reporting any effect on a complete model is then at most α (`docs/diagnosis.md`).\n",
+        "Rule: a candidate is significant when the Wald statistic of its block and the drop of the innovations' −2 log-likelihood both exceed the χ²(k) quantile at α / (budget × candidates) = {} / ({} × {}); of the significant, the one with the largest likelihood gain over its threshold that also predicts the held-out part of the recording better is added (`docs/diagnosis.md`).\n",
         d.options.alpha,
         d.options.budget,
         d.options.candidates.len()
     );
+    if !d.noise.is_empty() {
+        let _ = writeln!(
+            s,
+            "## Measurement noise corrected first\n\nThe declared noise was too large (NIS below its band, which no missing effect can cause, and which hides effects from every test); scaled by √NIS before the search:\n\n| key | declared | corrected | NIS with declared |\n|---|---|---|---|"
+        );
+        for c in &d.noise {
+            let _ = writeln!(
+                s,
+                "| `{}` | {} | {} | {} |",
+                c.key,
+                fmt_g(c.declared),
+                fmt_g(c.corrected),
+                fmt_g(c.declared_nis)
+            );
+        }
+        let _ = writeln!(s);
+    }
     let _ = writeln!(s, "## Effects found\n");
     if d.found.is_empty() {
         let _ = writeln!(s, "None: no candidate is significant.\n");
@@ -277,12 +301,13 @@ pub fn report_md(d: &Diagnosis, rec_label: &str, rec: &Recording, command: &str)
         );
         let _ = writeln!(
             s,
-            "| candidate | k | Wald | likelihood ratio | threshold | significant |\n|---|---|---|---|---|---|"
+            "Structure statistic of this round's model: {}.\n\n| candidate | k | Wald | likelihood ratio | threshold | significant | structure left | held-out likelihood ratio |\n|---|---|---|---|---|---|---|---|",
+            fmt_g(r.structure)
         );
         for t in &r.tests {
             let _ = writeln!(
                 s,
-                "| `{}` | {} | {} | {} | {} | {} |",
+                "| `{}` | {} | {} | {} | {} | {} | {} | {} |",
                 t.effect,
                 t.dof,
                 fmt_g(t.wald),
@@ -291,7 +316,11 @@ pub fn report_md(d: &Diagnosis, rec_label: &str, rec: &Recording, command: &str)
                 match &t.error {
                     Some(e) => format!("not tested: {e}"),
                     None => if t.significant { "yes" } else { "no" }.to_string(),
-                }
+                },
+                fmt_g(t.structure_after),
+                t.holdout_likelihood_ratio.map_or("–".to_string(), |h| {
+                    format!("{}{}", fmt_g(h), if h > 0.0 { "" } else { " (rejected)" })
+                })
             );
         }
         let _ = writeln!(s);

@@ -4,8 +4,21 @@
 
 type Complex64 = nalgebra::Complex<f64>;
 
-/// Welch segment length (samples, a power of two).
-pub const SEGMENT: usize = 1024;
+/// Shortest Welch segment (samples).
+pub const MIN_SEGMENT: usize = 256;
+/// Longest Welch segment (samples).
+pub const MAX_SEGMENT: usize = 16384;
+
+/// The Welch segment for `n` samples: the largest power of two up to `n / 2` (at least
+/// three half-overlapping segments, so slow structure still has a few cycles' resolution),
+/// within [`MIN_SEGMENT`, `MAX_SEGMENT`].
+pub fn segment_len(n: usize) -> usize {
+    let mut seg = MIN_SEGMENT;
+    while seg * 2 <= n / 2 && seg * 2 <= MAX_SEGMENT {
+        seg *= 2;
+    }
+    seg
+}
 
 /// In-place radix-2 FFT (length a power of two).
 fn fft(x: &mut [Complex64]) {
@@ -64,11 +77,11 @@ impl Psd {
     }
 }
 
-/// Welch estimate (Hann window, half overlap) of the PSD of `x` sampled at `rate_hz`,
-/// normalized so that white noise gives 1 (the density divided by `2σ²/rate`, σ² the
-/// mean square of `x`). Empty when `x` is shorter than one segment.
+/// Welch estimate (Hann window, half overlap, segment [`segment_len`]) of the PSD of `x`
+/// sampled at `rate_hz`, normalized so that white noise gives 1 (the density divided by
+/// `2σ²/rate`, σ² the mean square of `x`). Empty when `x` is shorter than one segment.
 pub fn welch(x: &[f64], rate_hz: f64) -> Psd {
-    let n = SEGMENT;
+    let n = segment_len(x.len());
     if x.len() < n || rate_hz <= 0.0 {
         return Psd::default();
     }

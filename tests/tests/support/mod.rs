@@ -41,10 +41,20 @@ pub fn qemu_available_or_skip() -> bool {
     );
 }
 
-/// Builds the firmware release image into `target/<target_subdir>` and returns the ELF path.
+/// Where the firmware images are built: `$FLEXCAL_QEMU_TARGET_DIR` when set (e.g. to keep
+/// a checkout's tree clean or share the images between checkouts), else `target/`.
+pub fn image_target_base() -> PathBuf {
+    match std::env::var_os("FLEXCAL_QEMU_TARGET_DIR") {
+        Some(dir) if !dir.is_empty() => PathBuf::from(dir),
+        _ => workspace_root().join("target"),
+    }
+}
+
+/// Builds the firmware release image into `<target>/<target_subdir>` (`<target>`: see
+/// [`image_target_base`]) and returns the ELF path.
 pub fn build_image(target_subdir: &str, features: &[&str]) -> PathBuf {
     let root = workspace_root();
-    let target_dir = root.join("target").join(target_subdir);
+    let target_dir = image_target_base().join(target_subdir);
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let mut cmd = Command::new(cargo);
     cmd.current_dir(&root)

@@ -1,0 +1,174 @@
+//! `flexcal diagnose` on simulations that carry one undeclared effect each, on the
+//! complete model (false alarms), and on an effect outside the candidate list.
+//! The figures of `docs/diagnosis.md` come from the same runs at 300 s
+//! (`flexcal diagnose`, commands there); these tests use 120 s recordings.
+
+use flexcal_core::augment::Effect;
+use flexcal_sim::calib::config::CalibConfig;
+use flexcal_sim::diagnose::report::{effect_truth, master_rate_hz, structure};
+use flexcal_sim::diagnose::{diagnose, Diagnosis, Options};
+use flexcal_sim::recording::Recording;
+use flexcal_sim::sim::{simulate, Scenario};
+
+const DURATION_S: f64 = 120.0;
+
+fn scenario(name: &str) -> Scenario {
+    let path = format!("{}/../scenarios/{name}", env!("CARGO_MANIFEST_DIR"));
+    let mut sc = Scenario::load(if name.ends_with(".toml") { &path } else { name })
+        .unwrap_or_else(|e| panic!("{e}"));
+    sc.duration_s = DURATION_S;
+    sc
+}
+
+/// Simulates and diagnoses with the model the scenario declares (what `simulate` writes
+/// beside the recording as `calibrate.toml`).
+fn run(sc: &Scenario, seed: u64) -> (Recording, Diagnosis) {
+    let rec = simulate(sc, seed).recording;
+    let cfg = CalibConfig::declared_for(sc, 1.0 / sc.master.rate_hz);
+    let d = diagnose(&rec, &cfg, &Options::default()).expect("diagnose");
+    (rec, d)
+}
+
+fn found(d: &Diagnosis) -> Vec<&'static str> {
+    d.found.iter().map(|t| t.effect).collect()
+}
+
+/// Asserts the effect was found and every state is within 3σ of the truth.
+fn assert_within_3_sigma(d: &Diagnosis, rec: &Recording, effect: Effect) {
+    let t = d
+        .found
+        .iter()
+        .find(|t| t.effect == effect.name())
+        .unwrap_or_else(|| panic!("{} not found: {:?}", effect.name(), found(d)));
+    let truth = effect_truth(effect, rec.truth.as_ref().expect("truth")).expect("truth columns");
+    for ((e, s), tr) in t.estimate.iter().zip(&t.sigma).zip(&truth) {
+        assert!(
+            (e - tr).abs() <= 3.0 * s,
+            "{}: estimate {e:e} ± {s:e}, truth {tr:e} ({:.1}σ)",
+            effect.name(),
+            (e - tr) / s
+        );
+    }
+}
+
+fn unexplained(d: &Diagnosis, rec: &Recording) -> Vec<(&'static str, usize, f64)> {
+    structure(&d.after, d.options.alpha, master_rate_hz(rec))
+        .into_iter()
+        .filter(|s| s.rejected)
+        .map(|s| (s.channel, s.axis, s.peak_hz))
+        .collect()
+}
+
+#[test]
+fn paper_scale_factors_are_found_and_the_residuals_become_consistent() {
+    let (rec, d) = run(&scenario("paper"), 1);
+    assert_within_3_sigma(&d, &rec, Effect::GyroScaleFactor);
+    assert_within_3_sigma(&d, &rec, Effect::AccelScaleFactor);
+    assert_eq!(
+        d.found.len(),
+        2,
+        "only the two scale factors: {:?}",
+        found(&d)
+    );
+    let n = d.after.result.innovations.len() as f64;
+    let band = [
+        flexcal_core::stats::chi2_quantile(0.005, n) / n,
+        flexcal_core::stats::chi2_quantile(0.995, n) / n,
+    ];
+    let nis = d.after.result.nis_mean();
+    assert!(
+        nis > band[0] && nis < band[1],
+        "NIS after {nis} outside {band:?}"
+    );
+    assert!(
+        unexplained(&d, &rec).is_empty(),
+        "{:?}",
+        unexplained(&d, &rec)
+    );
+    // The z accelerometer bias error the scale factor caused (200 ppm × g) is gone.
+    let tr = rec.truth.as_ref().expect("truth");
+    let before = flexcal_sim::calib::score::score(&d.before.result, tr).expect("score");
+    let after = flexcal_sim::calib::score::score(&d.after.result, tr).expect("score");
+    assert!(
+        before.accel_bias[2].abs() > 1.5e-3,
+        "{:?}",
+        before.accel_bias
+    );
+    assert!(after.accel_bias[2].abs() < 3e-4, "{:?}", after.accel_bias);
+    assert!(after.nees_mean < 30.0 && before.nees_mean > 1e3);
+}
+
+#[test]
+fn master_delays_of_10_20_and_50_ms_are_found() {
+    for tau in [0.01, 0.02, 0.05] {
+        let mut sc = scenario("moored-delay-20ms.toml");
+        sc.undeclared.master_delay_s = tau;
+        let (rec, d) = run(&sc, 2);
+        assert_eq!(found(&d), ["time_delay"], "τ = {tau}");
+        assert_within_3_sigma(&d, &rec, Effect::TimeDelay);
+        assert!(
+            unexplained(&d, &rec).is_empty(),
+            "τ = {tau}: {:?}",
+            unexplained(&d, &rec)
+        );
+        // The held-out velocity residual shrinks to the master's noise.
+        let rms = |m: &flexcal_sim::diagnose::evaluate::ModelEval| {
+            m.holdout.as_ref().expect("holdout").channels[0].rms
+        };
+        assert!(rms(&d.after) < rms(&d.before), "τ = {tau}");
+    }
+}
+
+#[test]
+fn a_lever_arm_error_of_half_a_metre_is_found() {
+    let (rec, d) = run(&scenario("moored-lever-error.toml"), 3);
+    assert_eq!(found(&d), ["lever_arm_error"]);
+    assert_within_3_sigma(&d, &rec, Effect::LeverArmError);
+    assert!(
+        unexplained(&d, &rec).is_empty(),
+        "{:?}",
+        unexplained(&d, &rec)
+    );
+}
+
+/// 300 s (the scenario's own is 600 s): at 120 s the delay's estimate on the complete
+/// model carries a bias of +0.2 ms against σ ≈ 0.11 ms and alarms on 2 seeds in 20
+/// (`docs/diagnosis.md`, open); at 300 s the bias is +0.12 ms against σ ≈ 0.074 ms.
+#[test]
+fn the_complete_model_raises_at_most_one_false_alarm_in_20_seeds() {
+    let mut sc = scenario("moored");
+    sc.duration_s = 300.0;
+    let mut alarms = Vec::new();
+    let mut max_ratio: f64 = 0.0;
+    for seed in 100..120 {
+        let (_, d) = run(&sc, seed);
+        for r in &d.rounds {
+            for t in &r.tests {
+                max_ratio = max_ratio.max(t.wald.min(t.likelihood_ratio) / t.threshold);
+            }
+        }
+        if !d.found.is_empty() {
+            alarms.push((seed, found(&d)));
+        }
+    }
+    eprintln!("false alarms: {alarms:?}; largest min(Wald, LR)/threshold {max_ratio:.3}");
+    assert!(alarms.len() <= 1, "{alarms:?}");
+}
+
+#[test]
+fn an_effect_outside_the_candidates_is_reported_as_unexplained() {
+    // A 37 s oscillation of the master's north velocity: no candidate has that signature.
+    let (rec, d) = run(&scenario("moored-wave.toml"), 4);
+    assert!(d.found.is_empty(), "forced onto {:?}", found(&d));
+    let left = unexplained(&d, &rec);
+    let north = left
+        .iter()
+        .find(|(c, a, _)| *c == "velocity" && *a == 1)
+        .unwrap_or_else(|| panic!("velocity north not reported: {left:?}"));
+    // 1/37 s = 0.027 Hz; the Welch bins of a 120 s record are 0.024 Hz apart.
+    assert!(
+        (north.2 - 1.0 / 37.0).abs() < 0.025,
+        "peak at {} Hz",
+        north.2
+    );
+}
