@@ -582,6 +582,10 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// How long before the flexure states' epoch (the last time update) slave time
     /// `t_s` is (s, ≥ 0 once `needed_until` held).
     fn flexure_lag(&self, t_s: f64) -> f64 {
+        if self.cfg.augmentation.offset(Effect::TimeDelay).is_none() {
+            // Matched at the epoch (`needed_until`): the declared model as it always was.
+            return 0.0;
+        }
         self.epoch.map_or(0.0, |ep| {
             (ep.next_t - self.cfg.filter_period_s - t_s).max(0.0)
         })
@@ -702,7 +706,14 @@ impl<T: Real, const S: usize> Engine<T, S> {
         while let Some(msg) = self.pending.front().copied() {
             let newest = self.buffer.newest_time();
             let needed = self.needed_until(msg.t);
-            if newest.is_none_or(|t| needed > t + 1e-9 * self.cfg.filter_period_s) {
+            // With a delay, `needed` may be an epoch computed on the filter grid: allow
+            // its rounding against the IMU time stamps.
+            let slack = if self.cfg.augmentation.offset(Effect::TimeDelay).is_some() {
+                1e-9 * self.cfg.filter_period_s
+            } else {
+                0.0
+            };
+            if newest.is_none_or(|t| needed > t + slack) {
                 break;
             }
             let _ = self.pending.pop_front();

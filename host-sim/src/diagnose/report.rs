@@ -301,15 +301,17 @@ pub fn report_md(d: &Diagnosis, rec_label: &str, rec: &Recording, command: &str)
         );
         let _ = writeln!(
             s,
-            "Structure statistic of this round's model: {}.\n\n| candidate | k | Wald | likelihood ratio | threshold | significant | structure left | held-out likelihood ratio |\n|---|---|---|---|---|---|---|---|",
+            "Structure statistic of this round's model: {}.\n\n| candidate | k | estimate ± σ | Wald | likelihood ratio | threshold | significant | structure left | held-out likelihood ratio |\n|---|---|---|---|---|---|---|---|---|",
             fmt_g(r.structure)
         );
         for t in &r.tests {
             let _ = writeln!(
                 s,
-                "| `{}` | {} | {} | {} | {} | {} | {} | {} |",
+                "| `{}` | {} | {} ± {} | {} | {} | {} | {} | {} | {} |",
                 t.effect,
                 t.dof,
+                fmt_vec(&t.estimate),
+                fmt_vec(&t.sigma),
                 fmt_g(t.wald),
                 fmt_g(t.likelihood_ratio),
                 fmt_g(t.threshold),
