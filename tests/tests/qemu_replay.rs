@@ -489,7 +489,7 @@ fn paper_gyro_scale_factor_in_qemu_matches_calibrate_f32() {
     )
     .expect("json");
     assert_eq!(
-        summary["effects"][0]["effect"], "gyro_scale_factor",
+        summary["effects"][0]["name"], "gyro_scale_factor",
         "{summary}"
     );
 }

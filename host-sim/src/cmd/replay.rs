@@ -676,24 +676,6 @@ pub fn write_outputs(a: &Args, r: &Replayed) -> Result<(), String> {
                 "frame_errors_from_board": qemu.rx_errors,
             }),
         );
-        if !res.effect_rows.is_empty() && !obj.contains_key("effects") {
-            // The board's last estimate of each effect (`wald` with a diagonal P).
-            let effects: Vec<serde_json::Value> = res
-                .final_effects()
-                .iter()
-                .map(|r| {
-                    serde_json::json!({
-                        "effect": r.effect.name(),
-                        "unit": r.effect.unit(),
-                        "value": r.value,
-                        "sigma": r.sigma,
-                        "wald": r.wald,
-                        "wald_covariance": "diagonal",
-                    })
-                })
-                .collect();
-            obj.insert("effects".into(), serde_json::json!(effects));
-        }
         obj.insert(
             "qemu".into(),
             serde_json::json!({
