@@ -13,6 +13,14 @@ use flexcal_core::real::Real;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
+/// The effect of a `diagnosis.json` name, or an error listing the vocabulary.
+pub fn parse_effect(name: &str) -> Result<Effect, String> {
+    Effect::from_name(name).ok_or_else(|| {
+        let known: Vec<&str> = Effect::ALL.iter().map(|e| e.name()).collect();
+        format!("unknown effect `{name}` ({})", known.join(", "))
+    })
+}
+
 /// Calibration configuration (TOML).
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields)]
@@ -212,10 +220,7 @@ impl CalibConfig {
     pub fn augmentation<T: Real>(&self) -> Result<Augmentation<T>, String> {
         let mut aug = Augmentation::none();
         for name in &self.effects {
-            let effect = Effect::from_name(name).ok_or_else(|| {
-                let known: Vec<&str> = Effect::ALL.iter().map(|e| e.name()).collect();
-                format!("`effects`: unknown effect `{name}` ({})", known.join(", "))
-            })?;
+            let effect = parse_effect(name).map_err(|e| format!("`effects`: {e}"))?;
             aug = aug
                 .with(effect, T::of(effect.default_prior_sigma()))
                 .map_err(|e| match e {

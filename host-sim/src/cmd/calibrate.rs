@@ -79,18 +79,32 @@ pub fn resolve_config(
     Ok((CalibConfig::default(), "built-in default".to_string()))
 }
 
-/// Runs `flexcal calibrate`.
-pub fn run(a: &Args) -> Result<(), String> {
-    let rec = read_recording(&a.rec_dir).map_err(|e| e.to_string())?;
-    let (mut cfg, origin) = resolve_config(&a.rec_dir, a.config.as_deref())?;
-    a.model.apply(&mut cfg)?;
+/// The configuration a command runs a recording with: resolved (`resolve_config`), the
+/// model switches applied, angular-rate matching dropped when the master gives no rate,
+/// the flexure identified when asked; says on stderr what it chose. Returns it with where
+/// the flexure model came from.
+pub fn prepare_config(
+    rec: &crate::recording::Recording,
+    rec_dir: &Path,
+    explicit: Option<&Path>,
+    model: &ModelArgs,
+) -> Result<(CalibConfig, String), String> {
+    let (mut cfg, origin) = resolve_config(rec_dir, explicit)?;
+    model.apply(&mut cfg)?;
     if cfg.matching_flags().angular_rate && !rec.master_has_rate() {
         cfg.matching.retain(|m| m != "angular_rate");
         eprintln!("flexcal: the master gives no angular rate: angular-rate matching is off (velocity and attitude matching only)");
     }
     eprintln!("flexcal: configuration: {origin}");
-    let flexure_source = choose_flexure(&rec, &mut cfg);
+    let flexure_source = choose_flexure(rec, &mut cfg);
     eprintln!("flexcal: flexure model: {flexure_source}");
+    Ok((cfg, flexure_source))
+}
+
+/// Runs `flexcal calibrate`.
+pub fn run(a: &Args) -> Result<(), String> {
+    let rec = read_recording(&a.rec_dir).map_err(|e| e.to_string())?;
+    let (cfg, flexure_source) = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &a.model)?;
     let res = runner::run(&rec, &cfg, a.precision)?;
     let sc = rec.truth.as_ref().and_then(|t| score(&res, t));
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;

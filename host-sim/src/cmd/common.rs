@@ -31,7 +31,7 @@ impl ScenarioArgs {
 }
 
 /// Switches of the filter's model that the command line may override.
-#[derive(clap::Args)]
+#[derive(clap::Args, Default)]
 pub struct ModelArgs {
     /// Leave the flexure-bent lever arm out of the model (the paper's baseline).
     #[arg(long)]

@@ -2,7 +2,9 @@
 //! residuals keep, add the candidate effect that explains it, repeat; write
 //! `diagnosis.json`, `report.md` and plots.
 
-use crate::cmd::calibrate::{choose_flexure, resolve_config};
+use crate::calib::config::parse_effect;
+use crate::cmd::calibrate::prepare_config;
+use crate::cmd::common::ModelArgs;
 use crate::diagnose::{diagnose, report, Options};
 use crate::recording::read_recording;
 use flexcal_core::augment::Effect;
@@ -37,25 +39,14 @@ pub struct Args {
 /// Runs `flexcal diagnose`.
 pub fn run(a: &Args) -> Result<(), String> {
     let rec = read_recording(&a.rec_dir).map_err(|e| e.to_string())?;
-    let (mut cfg, origin) = resolve_config(&a.rec_dir, a.config.as_deref())?;
-    if cfg.matching_flags().angular_rate && !rec.master_has_rate() {
-        cfg.matching.retain(|m| m != "angular_rate");
-        eprintln!("flexcal: the master gives no angular rate: angular-rate matching is off");
-    }
-    eprintln!("flexcal: declared model: {origin}");
-    let flexure_source = choose_flexure(&rec, &mut cfg);
-    eprintln!("flexcal: flexure model: {flexure_source}");
+    // The declared model: no switches (the search adds the effects).
+    let (cfg, _) = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &ModelArgs::default())?;
     let candidates = if a.candidates.is_empty() {
         Effect::ALL.to_vec()
     } else {
         a.candidates
             .iter()
-            .map(|n| {
-                Effect::from_name(n).ok_or_else(|| {
-                    let known: Vec<&str> = Effect::ALL.iter().map(|e| e.name()).collect();
-                    format!("--candidates: unknown effect `{n}` ({})", known.join(", "))
-                })
-            })
+            .map(|n| parse_effect(n).map_err(|e| format!("--candidates: {e}")))
             .collect::<Result<Vec<_>, _>>()?
     };
     let opts = Options {

@@ -19,7 +19,7 @@
 
 use crate::calib::config::CalibConfig;
 use crate::calib::run::{CalibResult, CovarianceCheck, EffectRow, EstimateRow, Precision};
-use crate::cmd::calibrate::{choose_flexure, resolve_config};
+use crate::cmd::calibrate::prepare_config;
 use crate::cmd::common::ModelArgs;
 use crate::recording::{read_recording, Recording};
 use crate::report::summary;
@@ -578,15 +578,7 @@ pub fn replay(a: &Args) -> Result<Replayed, String> {
         return Err("replay needs a runner: only `--qemu` exists".into());
     }
     let rec = read_recording(&a.rec_dir).map_err(|e| e.to_string())?;
-    let (mut cfg, origin) = resolve_config(&a.rec_dir, a.config.as_deref())?;
-    a.model.apply(&mut cfg)?;
-    if cfg.matching_flags().angular_rate && !rec.master_has_rate() {
-        cfg.matching.retain(|m| m != "angular_rate");
-        eprintln!("flexcal: the master gives no angular rate: angular-rate matching is off");
-    }
-    eprintln!("flexcal: configuration: {origin}");
-    let flexure_source = choose_flexure(&rec, &mut cfg);
-    eprintln!("flexcal: flexure model: {flexure_source}");
+    let (cfg, flexure_source) = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &a.model)?;
     let msgs = stream_messages(&rec, &cfg, a.estimates_every, a.status_every);
     let frames = encode_frames(&msgs)?;
     let bytes = frames.concat();
