@@ -120,19 +120,22 @@ fn dyn_product<T: Real, const S: usize>(
     a: &SMatrix<T, S, S>,
     b: &SMatrix<T, S, S>,
 ) -> SMatrix<T, S, S> {
+    // Index loops over the column-major slices ((i, j) at j·S + i), not chunk iterators:
+    // an outlined `chunks_exact` divides by a run-time chunk size, a panic path the board
+    // image must not link.
     let mut p = SMatrix::<T, S, S>::zeros();
-    let av = a.as_slice();
-    for (pc, bc) in p
-        .as_mut_slice()
-        .chunks_exact_mut(S)
-        .zip(b.as_slice().chunks_exact(S))
-    {
-        for (i, pe) in pc.iter_mut().take(DYN).enumerate() {
+    let (av, bv) = (a.as_slice(), b.as_slice());
+    let at = |v: &[T], idx: usize| v.get(idx).copied().unwrap_or_else(T::zero);
+    let pv = p.as_mut_slice();
+    for j in 0..S {
+        for i in 0..DYN {
             let mut acc = T::zero();
-            for (k, &bk) in bc.iter().take(DYN).enumerate() {
-                acc += av.get(k * S + i).copied().unwrap_or_else(T::zero) * bk;
+            for k in 0..DYN {
+                acc += at(av, k * S + i) * at(bv, j * S + k);
             }
-            *pe = acc;
+            if let Some(e) = pv.get_mut(j * S + i) {
+                *e = acc;
+            }
         }
     }
     p
@@ -171,17 +174,16 @@ pub fn transition<T: Real, const S: usize>(
     // (i, j) at j·rows + i).
     let (half, sixth) = (T::of(0.5), T::of(1.0 / 6.0));
     let mut phi = StateMat::<T, S>::zeros();
-    let cols = phi
-        .as_mut_slice()
-        .chunks_exact_mut(S)
-        .zip(ft.as_slice().chunks_exact(S))
-        .zip(ft2.as_slice().chunks_exact(S))
-        .zip(ft3.as_slice().chunks_exact(S));
-    for (j, (((pc, c1), c2), c3)) in cols.enumerate() {
-        let rows = pc.iter_mut().zip(c1).zip(c2).zip(c3);
-        for (i, (((p, &a1), &a2), &a3)) in rows.enumerate() {
+    let (f1, f2, f3) = (ft.as_slice(), ft2.as_slice(), ft3.as_slice());
+    let at = |v: &[T], idx: usize| v.get(idx).copied().unwrap_or_else(T::zero);
+    let pv = phi.as_mut_slice();
+    for j in 0..S {
+        for i in 0..S {
+            let idx = j * S + i;
             let id = if i == j { T::one() } else { T::zero() };
-            *p = id + a1 + a2 * half + a3 * sixth;
+            if let Some(p) = pv.get_mut(idx) {
+                *p = id + at(f1, idx) + at(f2, idx) * half + at(f3, idx) * sixth;
+            }
         }
     }
     for (axis, ar) in flex.axes.iter().enumerate() {

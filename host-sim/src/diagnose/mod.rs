@@ -397,3 +397,67 @@ pub fn diagnose(
         options: opts.clone(),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calib::residuals::ChannelResidual;
+
+    fn residual(q: f64, nis: f64) -> ChannelResidual {
+        ChannelResidual {
+            channel: "velocity",
+            axis: 0,
+            count: 10_000,
+            nis_mean: nis,
+            nis_band: [0.97, 1.03],
+            ljung_box_q: q,
+            whiteness_p: flexcal_core::stats::chi2_sf(q, 20.0),
+            white: true,
+        }
+    }
+
+    #[test]
+    fn thresholds_are_bonferroni_chi_square_quantiles() {
+        let o = Options::default();
+        // α / (3 × 8) = 4.17e-4: the χ² quantiles quoted in docs/diagnosis.md.
+        for (k, want) in [(1, 12.4559), (3, 18.1140), (9, 30.1316)] {
+            assert!(
+                (o.threshold(k) - want).abs() < 1e-3,
+                "k = {k}: {}",
+                o.threshold(k)
+            );
+        }
+        assert!(Options {
+            budget: 0,
+            ..o.clone()
+        }
+        .validate()
+        .is_err());
+        assert!(Options {
+            alpha: 1.5,
+            ..o.clone()
+        }
+        .validate()
+        .is_err());
+        assert!(Options {
+            candidates: vec![],
+            ..o
+        }
+        .validate()
+        .is_err());
+    }
+
+    #[test]
+    fn structure_counts_only_whiteness_beyond_its_critical_value() {
+        let alpha = 0.01;
+        let q_crit = chi2_isf(alpha / 2.0, 20.0);
+        // White axes and a low NIS (overstated noise) are no structure.
+        let white = [residual(20.0, 0.2), residual(q_crit - 1.0, 1.0)];
+        assert_eq!(structure_statistic(&white, alpha), 0.0);
+        // Correlated innovations are, by their excess over the critical value.
+        let coloured = [residual(q_crit + 100.0, 1.0), residual(10.0, 1.0)];
+        assert!((structure_statistic(&coloured, alpha) - 100.0).abs() < 1e-9);
+        // A failed Ljung-Box (NaN) does not count.
+        assert_eq!(structure_statistic(&[residual(f64::NAN, 1.0)], alpha), 0.0);
+    }
+}
