@@ -733,7 +733,9 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 t: msg.t,
                 q_bm_n: msg.q_bm_n,
             });
-            if let Some(w) = msg.w_ib_bm {
+            // Kept only for the delay's rate column.
+            let keep = self.cfg.augmentation.offset(Effect::TimeDelay).is_some();
+            if let Some(w) = msg.w_ib_bm.filter(|_| keep) {
                 if self.past_master_rates.is_full() {
                     let _ = self.past_master_rates.pop_front();
                 }
@@ -889,7 +891,11 @@ impl<T: Real, const S: usize> Engine<T, S> {
         // current message's rate would put its noise into the column of its own
         // innovation. Noise in this column biases the delay even from past messages (the
         // flexure states carry their noise too), hence a long window.
-        let w_dot_bs = exp_so3(&self.misalignment).transpose() * self.master_rate_slope();
+        let w_dot_bs = if self.cfg.augmentation.offset(Effect::TimeDelay).is_some() {
+            exp_so3(&self.misalignment).transpose() * self.master_rate_slope()
+        } else {
+            Vector3::zeros()
+        };
         let w_ie = earth::earth_rate_n(msg.pos.lat_rad);
         let w_en = earth::transport_rate_n(&msg.pos, &slave.v_n);
         // v̇ = C f + g − (2ω_ie + ω_en) × v, from the sensed force (not from differences
