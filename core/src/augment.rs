@@ -2,9 +2,11 @@
 //! filter can carry after the declared ones. The diagnosis adds the block of an effect
 //! it finds in the residuals; the board runs the same layout from its configuration.
 //!
-//! Every block is a constant (no process noise) and stays in the filter's state: it is
-//! not fed back into the nominal solution, so its estimate and σ are read from the
-//! filter at any time. Conventions (the simulator injects the effects the same way):
+//! Every block is a constant (no process noise). All but the delay stay in the filter's
+//! state, not fed back into the nominal solution, so their estimate and σ are read from
+//! the filter at any time; the delay's state is the error of the engine's nominal τ̂,
+//! fed back once known to 1 ms (`Engine::effect_estimate` adds the two). Conventions (the
+//! simulator injects the effects the same way):
 //!
 //! | effect | states | meaning | enters |
 //! |---|---|---|---|
