@@ -125,8 +125,8 @@ impl Effect {
 
     /// The smallest magnitude (SI, any state of the block) the diagnosis reports the
     /// effect at, however significant. Zero except for the delay: its estimate carries a
-    /// bias of +0.1 to +0.2 ms on simulated complete models (`docs/diagnosis.md`, open),
-    /// so delays under 0.5 ms are below what the tool resolves.
+    /// bias of up to +0.6 ms on simulated complete models (`docs/diagnosis.md`, Open;
+    /// the floor is set from that measurement at 300 s, not derived).
     pub fn resolution_floor(self) -> f64 {
         match self {
             Effect::TimeDelay => 5e-4,

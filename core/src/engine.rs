@@ -561,7 +561,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// the slave goes on to that epoch first.
     fn needed_until(&self, t: f64) -> f64 {
         let t_s = t - self.delay_s;
-        if self.cfg.augmentation.offset(Effect::TimeDelay).is_none() {
+        if !self.has_delay() {
             return t_s;
         }
         let period = self.cfg.filter_period_s;
@@ -579,10 +579,15 @@ impl<T: Real, const S: usize> Engine<T, S> {
         }
     }
 
+    /// Whether the layout carries the master delay (matching at t − τ̂, epoch-consistent).
+    fn has_delay(&self) -> bool {
+        self.cfg.augmentation.offset(Effect::TimeDelay).is_some()
+    }
+
     /// How long before the flexure states' epoch (the last time update) slave time
     /// `t_s` is (s, ≥ 0 once `needed_until` held).
     fn flexure_lag(&self, t_s: f64) -> f64 {
-        if self.cfg.augmentation.offset(Effect::TimeDelay).is_none() {
+        if !self.has_delay() {
             // Matched at the epoch (`needed_until`): the declared model as it always was.
             return 0.0;
         }
@@ -708,7 +713,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             let needed = self.needed_until(msg.t);
             // With a delay, `needed` may be an epoch computed on the filter grid: allow
             // its rounding against the IMU time stamps.
-            let slack = if self.cfg.augmentation.offset(Effect::TimeDelay).is_some() {
+            let slack = if self.has_delay() {
                 1e-9 * self.cfg.filter_period_s
             } else {
                 0.0
@@ -734,7 +739,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 q_bm_n: msg.q_bm_n,
             });
             // Kept only for the delay's rate column.
-            let keep = self.cfg.augmentation.offset(Effect::TimeDelay).is_some();
+            let keep = self.has_delay();
             if let Some(w) = msg.w_ib_bm.filter(|_| keep) {
                 if self.past_master_rates.is_full() {
                     let _ = self.past_master_rates.pop_front();
@@ -891,7 +896,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         // current message's rate would put its noise into the column of its own
         // innovation. Noise in this column biases the delay even from past messages (the
         // flexure states carry their noise too), hence a long window.
-        let w_dot_bs = if self.cfg.augmentation.offset(Effect::TimeDelay).is_some() {
+        let w_dot_bs = if self.has_delay() {
             exp_so3(&self.misalignment).transpose() * self.master_rate_slope()
         } else {
             Vector3::zeros()
