@@ -4,6 +4,7 @@ pub mod calib;
 pub mod cmd;
 pub mod diagnose;
 pub mod identify;
+pub mod learn;
 pub mod plot;
 pub mod recording;
 pub mod report;

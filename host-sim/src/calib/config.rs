@@ -51,6 +51,9 @@ pub struct CalibConfig {
     pub gyro_bias_rw: f64,
     /// Accelerometer bias random walk (m/s²/√s).
     pub accel_bias_rw: f64,
+    /// Mounting misalignment random walk (rad/√s): lets the misalignment follow a slow
+    /// drift (thermal bending, a master whose attitude error wanders). Zero: constant.
+    pub misalignment_rw_rad_rs: f64,
     /// Velocity matching noise (m/s).
     pub velocity_noise_mps: f64,
     /// Attitude matching noise (rad).
@@ -76,6 +79,10 @@ pub struct CalibConfig {
     /// Starting value of the master delay (s) when `effects` has `time_delay`: a
     /// previous estimate, so the delay's linearization holds from the start.
     pub initial_delay_s: f64,
+    /// Treat this configuration as the starting point of a model learned from the
+    /// recording (`flexcal calibrate`, `diagnose`, `montecarlo` learn first), instead of
+    /// the fixed truth about the data (false, the default for a file).
+    pub tune: bool,
 }
 
 impl Default for CalibConfig {
@@ -103,6 +110,7 @@ impl CalibConfig {
             accel_vrw_mps_rs: 1e-4,
             gyro_bias_rw: 0.0,
             accel_bias_rw: 0.0,
+            misalignment_rw_rad_rs: 0.0,
             velocity_noise_mps: 0.01,
             attitude_noise_rad: 1e-4,
             rate_noise_radps: 1e-4,
@@ -114,6 +122,7 @@ impl CalibConfig {
             gate_sigma: 5.0,
             effects: Vec::new(),
             initial_delay_s: 0.0,
+            tune: false,
         }
     }
 
@@ -298,7 +307,7 @@ impl CalibConfig {
                 gyro_arw: c(self.gyro_arw_rad_rs),
                 gyro_bias_rw: c(self.gyro_bias_rw),
                 accel_bias_rw: c(self.accel_bias_rw),
-                misalignment_rw: T::zero(),
+                misalignment_rw: c(self.misalignment_rw_rad_rs),
             },
             measurement_noise: MeasurementNoise {
                 velocity_mps: c(self.velocity_noise_mps),

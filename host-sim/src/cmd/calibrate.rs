@@ -6,6 +6,8 @@ use crate::calib::flexure_id::identify_flexure;
 use crate::calib::run::{self as runner, Precision};
 use crate::calib::score::score;
 use crate::cmd::common::ModelArgs;
+use crate::learn::increments::{increment_noise, IncrementNoise};
+use crate::learn::{default_start, learn, model_toml, LearnOptions, Learned};
 use crate::recording::read_recording;
 use crate::report::{plots, summary};
 use std::path::{Path, PathBuf};
@@ -64,47 +66,139 @@ pub fn choose_flexure(rec: &crate::recording::Recording, cfg: &mut CalibConfig) 
     }
 }
 
-/// Resolves the configuration: explicit file, the recording's own, or the default.
+/// Resolves the declared configuration: an explicit file, else the recording's own
+/// `calibrate.toml`; `None` when the recording declares nothing (the model is learned).
 pub fn resolve_config(
     rec_dir: &Path,
     explicit: Option<&Path>,
-) -> Result<(CalibConfig, String), String> {
+) -> Result<Option<(CalibConfig, String)>, String> {
     if let Some(p) = explicit {
-        return Ok((CalibConfig::load(p)?, p.display().to_string()));
+        return Ok(Some((CalibConfig::load(p)?, p.display().to_string())));
     }
     let beside = rec_dir.join("calibrate.toml");
     if beside.exists() {
-        return Ok((CalibConfig::load(&beside)?, beside.display().to_string()));
+        return Ok(Some((
+            CalibConfig::load(&beside)?,
+            beside.display().to_string(),
+        )));
     }
-    Ok((CalibConfig::default(), "built-in default".to_string()))
+    Ok(None)
 }
 
-/// The configuration a command runs a recording with: resolved (`resolve_config`), the
-/// model switches applied, angular-rate matching dropped when the master gives no rate,
-/// the flexure identified when asked; says on stderr what it chose. Returns it with where
-/// the flexure model came from.
+/// The configuration a command runs a recording with, and where it came from.
+pub struct Prepared {
+    /// The configuration.
+    pub cfg: CalibConfig,
+    /// Where the flexure model came from.
+    pub flexure_source: String,
+    /// The model learned from the recording, when it was learned.
+    pub learned: Option<Learned>,
+}
+
+/// Learns the model of a recording from `start` and says on stderr what it found.
+pub fn learn_and_say(
+    rec: &crate::recording::Recording,
+    start: &CalibConfig,
+    origin: &str,
+    inc: Option<IncrementNoise>,
+) -> Result<Learned, String> {
+    eprintln!("flexcal: learning the model from the recording, starting from the {origin}");
+    let l = learn(rec, start, origin, inc, &LearnOptions::default())?;
+    eprintln!(
+        "flexcal: learned in {:.1} s ({} filter runs on the first {:.0} s): log-likelihood {:+.1} over the start; held-out -2 ln L {:.1} learned vs {:.1} start: {}",
+        l.seconds,
+        l.evaluations,
+        l.window_s,
+        l.log_likelihood_gain,
+        l.holdout.learned.neg2ll,
+        l.holdout.start.neg2ll,
+        if l.adopted { "adopted" } else { "NOT adopted, the start is kept" }
+    );
+    for v in &l.values {
+        let sigma = v.sigma.map(|s| format!(" ± {s:.3e}")).unwrap_or_default();
+        eprintln!(
+            "flexcal:   {:<26} {:.4e}{sigma} (start {:.4e}, gain {:.1})",
+            v.name, v.value, v.start, v.log_likelihood_gain
+        );
+    }
+    Ok(l)
+}
+
+/// The configuration a command runs a recording with: the declared one (`--config`, else
+/// the recording's `calibrate.toml`) taken as the truth about the data unless it says
+/// `tune = true`; with `tune`, or when nothing is declared, the model is learned from the
+/// recording (`crate::learn`). The model switches are applied first (the effects they add
+/// are learned jointly), angular-rate matching is dropped when the master gives no rate,
+/// and the flexure is identified when a declared configuration asks; says on stderr what
+/// it chose.
 pub fn prepare_config(
     rec: &crate::recording::Recording,
     rec_dir: &Path,
     explicit: Option<&Path>,
     model: &ModelArgs,
-) -> Result<(CalibConfig, String), String> {
-    let (mut cfg, origin) = resolve_config(rec_dir, explicit)?;
-    model.apply(&mut cfg)?;
+) -> Result<Prepared, String> {
+    let declared = resolve_config(rec_dir, explicit)?;
+    let fixed = declared.as_ref().is_some_and(|(c, _)| !c.tune);
+    if fixed {
+        let Some((mut cfg, origin)) = declared else {
+            return Err("internal: declared configuration vanished".into());
+        };
+        model.apply(&mut cfg)?;
+        drop_rate_matching_without_rate(rec, &mut cfg);
+        eprintln!("flexcal: configuration: {origin}");
+        let flexure_source = choose_flexure(rec, &mut cfg);
+        eprintln!("flexcal: flexure model: {flexure_source}");
+        return Ok(Prepared {
+            cfg,
+            flexure_source,
+            learned: None,
+        });
+    }
+    let inc = increment_noise(rec, 200_000)
+        .map_err(|e| eprintln!("flexcal: IMU noise not read from the increments: {e}"))
+        .ok();
+    let (mut start, origin) = match declared {
+        Some((c, o)) => (c, format!("{o} (tune = true)")),
+        None => {
+            eprintln!("flexcal: no configuration given and none beside the recording");
+            (
+                default_start(rec, inc.as_ref()),
+                "built-in default".to_string(),
+            )
+        }
+    };
+    model.apply(&mut start)?;
+    drop_rate_matching_without_rate(rec, &mut start);
+    let learned = learn_and_say(rec, &start, &origin, inc)?;
+    Ok(Prepared {
+        cfg: learned.config.clone(),
+        flexure_source: format!(
+            "learned from the recording ({})",
+            if learned.adopted {
+                "adopted"
+            } else {
+                "not adopted: start kept"
+            }
+        ),
+        learned: Some(learned),
+    })
+}
+
+fn drop_rate_matching_without_rate(rec: &crate::recording::Recording, cfg: &mut CalibConfig) {
     if cfg.matching_flags().angular_rate && !rec.master_has_rate() {
         cfg.matching.retain(|m| m != "angular_rate");
         eprintln!("flexcal: the master gives no angular rate: angular-rate matching is off (velocity and attitude matching only)");
     }
-    eprintln!("flexcal: configuration: {origin}");
-    let flexure_source = choose_flexure(rec, &mut cfg);
-    eprintln!("flexcal: flexure model: {flexure_source}");
-    Ok((cfg, flexure_source))
 }
 
 /// Runs `flexcal calibrate`.
 pub fn run(a: &Args) -> Result<(), String> {
     let rec = read_recording(&a.rec_dir).map_err(|e| e.to_string())?;
-    let (cfg, flexure_source) = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &a.model)?;
+    let Prepared {
+        cfg,
+        flexure_source,
+        learned,
+    } = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &a.model)?;
     let res = runner::run(&rec, &cfg, a.precision)?;
     let sc = rec.truth.as_ref().and_then(|t| score(&res, t));
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
@@ -120,6 +214,10 @@ pub fn run(a: &Args) -> Result<(), String> {
         &res,
         sc.as_ref(),
     );
+    let doc = with_learned(doc, learned.as_ref());
+    if let Some(l) = &learned {
+        write_model_toml(&a.out, l)?;
+    }
     let text = serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())?;
     let path = a.out.join("summary.json");
     std::fs::write(&path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
@@ -165,6 +263,26 @@ pub fn run(a: &Args) -> Result<(), String> {
             s.nees_mean
         );
     }
+    Ok(())
+}
+
+/// Adds the learned model (`learned_model`) to a `summary.json` document.
+pub fn with_learned(mut doc: serde_json::Value, learned: Option<&Learned>) -> serde_json::Value {
+    if let (Some(l), Some(obj)) = (learned, doc.as_object_mut()) {
+        obj.insert(
+            "learned_model".into(),
+            serde_json::to_value(l).unwrap_or(serde_json::Value::Null),
+        );
+    }
+    doc
+}
+
+/// Writes `model.toml` (the configuration calibrated with, loadable with `--config`).
+pub fn write_model_toml(out: &Path, l: &Learned) -> Result<(), String> {
+    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let path = out.join("model.toml");
+    std::fs::write(&path, model_toml(l)?).map_err(|e| format!("{}: {e}", path.display()))?;
+    eprintln!("flexcal: model written to {}", path.display());
     Ok(())
 }
 

@@ -40,7 +40,7 @@ pub struct Args {
 pub fn run(a: &Args) -> Result<(), String> {
     let rec = read_recording(&a.rec_dir).map_err(|e| e.to_string())?;
     // The declared model: no switches (the search adds the effects).
-    let (cfg, _) = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &ModelArgs::default())?;
+    let cfg = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &ModelArgs::default())?.cfg;
     let candidates = if a.candidates.is_empty() {
         Effect::ALL.to_vec()
     } else {

@@ -558,6 +558,8 @@ pub fn result_from_board(run: &QemuRun) -> Result<CalibResult, String> {
 pub struct Replayed {
     /// The recording.
     pub rec: Recording,
+    /// The model learned from the recording, when none was declared (or `tune = true`).
+    pub learned: Option<crate::learn::Learned>,
     /// The configuration as resolved (and the flexure model as chosen).
     pub cfg: CalibConfig,
     /// Where the flexure model came from.
@@ -578,7 +580,11 @@ pub fn replay(a: &Args) -> Result<Replayed, String> {
         return Err("replay needs a runner: only `--qemu` exists".into());
     }
     let rec = read_recording(&a.rec_dir).map_err(|e| e.to_string())?;
-    let (cfg, flexure_source) = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &a.model)?;
+    let crate::cmd::calibrate::Prepared {
+        cfg,
+        flexure_source,
+        learned,
+    } = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &a.model)?;
     let msgs = stream_messages(&rec, &cfg, a.estimates_every, a.status_every);
     let frames = encode_frames(&msgs)?;
     let bytes = frames.concat();
@@ -612,6 +618,7 @@ pub fn replay(a: &Args) -> Result<Replayed, String> {
     let result = result_from_board(&qemu)?;
     Ok(Replayed {
         rec,
+        learned,
         cfg,
         flexure_source,
         frames_sent: frames.len(),
@@ -676,6 +683,10 @@ pub fn write_outputs(a: &Args, r: &Replayed) -> Result<(), String> {
                 "firmware": qemu.metrics(),
             }),
         );
+    }
+    let doc = crate::cmd::calibrate::with_learned(doc, r.learned.as_ref());
+    if let Some(l) = &r.learned {
+        crate::cmd::calibrate::write_model_toml(&a.out, l)?;
     }
     let text = serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())?;
     let path = a.out.join("summary.json");

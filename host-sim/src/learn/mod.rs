@@ -1,0 +1,228 @@
+//! Learning the filter's model from the recording itself (`docs/model-learning.md`).
+//!
+//! A user's recording comes with no description of its noise or its flexure. What
+//! the filter must assume is estimated here by maximum likelihood of the filter's
+//! own innovations (`search`), started from the slave's white noise read off its
+//! increments (`increments`) and the built-in model, on the first minutes of the
+//! recording; the learned model is adopted only when it predicts the held-out end of
+//! the recording at least as well as the model it replaces.
+
+pub mod flexure;
+pub mod increments;
+pub mod params;
+pub mod search;
+
+use crate::calib::config::CalibConfig;
+use crate::diagnose::evaluate::{holdout, Holdout};
+use crate::recording::Recording;
+use increments::IncrementNoise;
+use params::{ModelParams, Param};
+use search::{LearnedValue, Search};
+
+/// How the learner works.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct LearnOptions {
+    /// Length of the recording's start the likelihood is searched on (s).
+    pub window_s: f64,
+    /// Sweeps over all quantities (the second with half the step).
+    pub sweeps: usize,
+    /// The held-out check freezes the calibration after this fraction of the recording.
+    pub holdout_fraction: f64,
+}
+
+impl Default for LearnOptions {
+    fn default() -> Self {
+        Self {
+            window_s: 180.0,
+            sweeps: 2,
+            holdout_fraction: 0.7,
+        }
+    }
+}
+
+/// The held-out check of the learned model against the one it would replace.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct HoldoutComparison {
+    /// The starting model's held-out innovations.
+    pub start: Holdout,
+    /// The learned model's.
+    pub learned: Holdout,
+}
+
+/// What the learner found.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Learned {
+    /// Where the starting model came from (the built-in default, or a file with `tune`).
+    pub start_origin: String,
+    /// The model to calibrate with: the learned one if adopted, else the start.
+    #[serde(skip)]
+    pub config: CalibConfig,
+    /// The learned model, adopted or not.
+    #[serde(skip)]
+    pub learned_config: CalibConfig,
+    /// Whether the learned model replaced the start (it predicts the held-out part at
+    /// least as well).
+    pub adopted: bool,
+    /// Each learned quantity: start, value, σ, log-likelihood gain.
+    pub values: Vec<LearnedValue>,
+    /// The slave's white noise from its increments (the cross-check of the random walks).
+    pub increments: Option<IncrementNoise>,
+    /// Seconds of recording the search ran on.
+    pub window_s: f64,
+    /// −2 ln L of the starting model on the window.
+    pub neg2ll_start: f64,
+    /// −2 ln L of the learned model on the window.
+    pub neg2ll_learned: f64,
+    /// Log-likelihood gain of the learned model over the start on the window.
+    pub log_likelihood_gain: f64,
+    /// The held-out comparison on the whole recording.
+    pub holdout: HoldoutComparison,
+    /// Filter runs the search made.
+    pub evaluations: usize,
+    /// Wall time of the learning (s).
+    pub seconds: f64,
+}
+
+/// The recording's first `seconds` (IMU and master; no truth).
+pub fn window(rec: &Recording, seconds: f64) -> Recording {
+    let end = rec.imu_t0 + seconds;
+    Recording {
+        meta: rec.meta.clone(),
+        imu_t0: rec.imu_t0,
+        imu: rec.imu.iter().filter(|s| s.t <= end).cloned().collect(),
+        master: rec.master.iter().filter(|m| m.t <= end).cloned().collect(),
+        truth: None,
+    }
+}
+
+/// The search's start when nothing is declared: the built-in model at the master's
+/// period, angular-rate matching only if the master gives its rate, and the gyro's
+/// random walk from the increments (the velocity random walk no larger than the
+/// accelerometer's white floor, which bounds it).
+pub fn default_start(rec: &Recording, inc: Option<&IncrementNoise>) -> CalibConfig {
+    let mut c = CalibConfig::default();
+    if rec.meta.master_rate_hz > 0.0 {
+        c.filter_period_s = 1.0 / rec.meta.master_rate_hz;
+    }
+    if !rec.master_has_rate() {
+        c.matching.retain(|m| m != "angular_rate");
+    }
+    c.identify_flexure = false;
+    if let Some(inc) = inc {
+        let (lo, hi) = Param::GyroArw.bounds();
+        c.gyro_arw_rad_rs = inc.gyro_arw().clamp(lo, hi);
+        let (lo, hi) = Param::AccelVrw.bounds();
+        c.accel_vrw_mps_rs = c.accel_vrw_mps_rs.min(inc.accel_floor()).clamp(lo, hi);
+    }
+    c
+}
+
+/// Learns the model of `rec` starting from `start` (see the module doc).
+pub fn learn(
+    rec: &Recording,
+    start: &CalibConfig,
+    start_origin: &str,
+    inc: Option<IncrementNoise>,
+    opts: &LearnOptions,
+) -> Result<Learned, String> {
+    let clock = std::time::Instant::now();
+    let win = window(rec, opts.window_s);
+    let span = match (win.master.first(), win.master.last()) {
+        (Some(a), Some(b)) if b.t > a.t => b.t - a.t,
+        _ => return Err("the recording has too few master messages to learn a model".into()),
+    };
+    let mut s = Search::new(&win, ModelParams::from_config(start))?;
+    let neg2ll_start = s.current.total;
+    let m = start.matching_flags();
+    // A random walk that would move a state by its prior σ over the window.
+    let per_window = 1.0 / span.sqrt();
+    for sweep in 0..opts.sweeps.max(1) {
+        let h = std::f64::consts::LN_2 / (1u32 << sweep.min(8)) as f64;
+        if m.velocity {
+            s.line(&[Param::VelocityNoise], h);
+        }
+        if m.attitude {
+            s.line(&[Param::AttitudeNoise], h);
+        }
+        if m.angular_rate {
+            s.line(&[Param::RateNoise], h);
+        }
+        s.identify_flexure();
+        if sweep == 0 {
+            continue;
+        }
+        s.line(&[Param::AccelVrw], h);
+        s.vanishing(
+            Param::GyroBiasRw,
+            start.initial_gyro_bias_radps * per_window,
+            h,
+        );
+        s.vanishing(
+            Param::AccelBiasRw,
+            start.initial_accel_bias_mps2 * per_window,
+            h,
+        );
+        s.vanishing(
+            Param::MisalignmentRw,
+            start.initial_misalignment_rad * per_window,
+            h,
+        );
+    }
+    let learned_config = s.model.config();
+    let neg2ll_learned = s.current.total;
+    let (h_start, h_learned) = rayon::join(
+        || holdout(rec, start, opts.holdout_fraction),
+        || holdout(rec, &learned_config, opts.holdout_fraction),
+    );
+    let holdout = HoldoutComparison {
+        start: h_start?,
+        learned: h_learned?,
+    };
+    let adopted = holdout.learned.neg2ll <= holdout.start.neg2ll;
+    Ok(Learned {
+        start_origin: start_origin.to_string(),
+        config: if adopted {
+            learned_config.clone()
+        } else {
+            start.clone()
+        },
+        learned_config,
+        adopted,
+        values: s.values,
+        increments: inc,
+        window_s: span,
+        neg2ll_start,
+        neg2ll_learned,
+        log_likelihood_gain: (neg2ll_start - neg2ll_learned) / 2.0,
+        holdout,
+        evaluations: s.evaluations,
+        seconds: clock.elapsed().as_secs_f64(),
+    })
+}
+
+/// `model.toml`: the configuration to calibrate with, loadable with `--config` and
+/// runnable on the board unchanged, headed by what was learned.
+pub fn model_toml(l: &Learned) -> Result<String, String> {
+    let body = toml::to_string(&l.config).map_err(|e| e.to_string())?;
+    let mut head =
+        String::from("# Model learned from the recording by flexcal (docs/model-learning.md).\n");
+    head += &format!(
+        "# Start: {}. Learned model {} (held-out −2 ln L {:.1} learned vs {:.1} start).\n",
+        l.start_origin,
+        if l.adopted {
+            "adopted"
+        } else {
+            "NOT adopted: the start predicts the held-out part better"
+        },
+        l.holdout.learned.neg2ll,
+        l.holdout.start.neg2ll
+    );
+    for v in &l.values {
+        let sigma = v.sigma.map(|s| format!(" ± {s:.3e}")).unwrap_or_default();
+        head += &format!(
+            "#   {} = {:.4e}{sigma} (start {:.4e}, log-likelihood gain {:.1})\n",
+            v.name, v.value, v.start, v.log_likelihood_gain
+        );
+    }
+    Ok(head + &body)
+}

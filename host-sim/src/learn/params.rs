@@ -1,0 +1,246 @@
+//! The quantities the learner estimates, how each maps onto a [`CalibConfig`], and the
+//! flexure kept as a continuous second-order Gauss-Markov model per axis (natural
+//! frequency, damping, stationary σ), which the configuration carries as the AR(2) of
+//! the filter period.
+
+use crate::calib::config::CalibConfig;
+use flexcal_core::flexure::ArAxis;
+
+/// A continuous flexure model of one axis: `θ̈ + 2ζω θ̇ + ω² θ = w`, stationary σ of θ.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct FlexureAxis {
+    /// Natural frequency ω (rad/s).
+    pub omega_rad_s: f64,
+    /// Damping ratio ζ.
+    pub damping: f64,
+    /// Stationary σ of θ (rad).
+    pub sigma_rad: f64,
+}
+
+impl FlexureAxis {
+    /// The AR(2) `[a1, a2, σ_η]` of the filter period `t` (s).
+    pub fn ar(&self, t: f64) -> [f64; 3] {
+        let a = ArAxis::from_gauss_markov(self.omega_rad_s, self.damping, self.sigma_rad, t);
+        [a.a1, a.a2, a.sigma_rad]
+    }
+
+    /// The continuous model of an AR(2) `[a1, a2, σ_η]` at period `t`, when its poles
+    /// are complex and stable (an under-damped second-order system); `None` otherwise.
+    pub fn from_ar([a1, a2, sigma]: [f64; 3], t: f64) -> Option<Self> {
+        let r2 = -a2;
+        if !(r2 > 0.0 && r2 < 1.0) {
+            return None;
+        }
+        let r = r2.sqrt();
+        let c = a1 / (2.0 * r);
+        if c.is_nan() || c.abs() >= 1.0 {
+            return None;
+        }
+        let wd = c.acos() / t;
+        let zw = -r.ln() / t;
+        let omega = (wd * wd + zw * zw).sqrt();
+        let g0 = (1.0 - a2) / ((1.0 + a2) * ((1.0 - a2) * (1.0 - a2) - a1 * a1));
+        (g0 > 0.0 && omega > 0.0).then(|| Self {
+            omega_rad_s: omega,
+            damping: zw / omega,
+            sigma_rad: sigma * g0.sqrt(),
+        })
+    }
+}
+
+/// The built-in flexure when a configuration's AR has no continuous equivalent: the
+/// `moored` scenario's (ω = 1 rad/s, ζ = 0.3, 1 arcmin).
+pub const DEFAULT_FLEXURE: FlexureAxis = FlexureAxis {
+    omega_rad_s: 1.0,
+    damping: 0.3,
+    sigma_rad: 2.908_882_086_657_216e-4,
+};
+
+/// One learned quantity.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Param {
+    /// Velocity matching noise (m/s).
+    VelocityNoise,
+    /// Attitude matching noise (rad).
+    AttitudeNoise,
+    /// The master's angular-rate noise (rad/s).
+    RateNoise,
+    /// Gyro angle random walk (rad/√s).
+    GyroArw,
+    /// Accelerometer velocity random walk (m/s/√s).
+    AccelVrw,
+    /// Gyro bias instability as a random walk (rad/s/√s).
+    GyroBiasRw,
+    /// Accelerometer bias instability as a random walk (m/s²/√s).
+    AccelBiasRw,
+    /// Misalignment random walk (rad/√s).
+    MisalignmentRw,
+    /// Flexure natural frequency of a slave axis (rad/s).
+    FlexureOmega(usize),
+    /// Flexure damping ratio of a slave axis.
+    FlexureDamping(usize),
+    /// Flexure stationary σ of a slave axis (rad).
+    FlexureSigma(usize),
+}
+
+impl Param {
+    /// Name in `summary.json` and `model.toml` comments.
+    pub fn name(&self) -> String {
+        const AX: [&str; 3] = ["x", "y", "z"];
+        let ax = |k: &usize| AX.get(*k).copied().unwrap_or("?");
+        match self {
+            Param::VelocityNoise => "velocity_noise_mps".into(),
+            Param::AttitudeNoise => "attitude_noise_rad".into(),
+            Param::RateNoise => "rate_noise_radps".into(),
+            Param::GyroArw => "gyro_arw_rad_rs".into(),
+            Param::AccelVrw => "accel_vrw_mps_rs".into(),
+            Param::GyroBiasRw => "gyro_bias_rw".into(),
+            Param::AccelBiasRw => "accel_bias_rw".into(),
+            Param::MisalignmentRw => "misalignment_rw_rad_rs".into(),
+            Param::FlexureOmega(k) => format!("flexure_omega_rad_s_{}", ax(k)),
+            Param::FlexureDamping(k) => format!("flexure_damping_{}", ax(k)),
+            Param::FlexureSigma(k) => format!("flexure_sigma_rad_{}", ax(k)),
+        }
+    }
+
+    /// Whether the quantity may be exactly zero (a process noise that may be absent):
+    /// its search starts from a ladder of sizes that includes zero.
+    pub fn may_vanish(&self) -> bool {
+        matches!(
+            self,
+            Param::GyroBiasRw | Param::AccelBiasRw | Param::MisalignmentRw
+        )
+    }
+
+    /// Bounds of the search (inclusive), in the quantity's unit.
+    pub fn bounds(&self) -> (f64, f64) {
+        match self {
+            // Floors: a noiseless or smooth master must not drive the matching noise to
+            // zero (1 mm/s, 2 µrad ≈ 0.4″, 0.02 °/h ≈ 1e-7 rad/s).
+            Param::VelocityNoise => (1e-3, 10.0),
+            Param::AttitudeNoise => (2e-6, 0.1),
+            Param::RateNoise => (1e-7, 0.1),
+            Param::GyroArw => (1e-8, 1e-1),
+            Param::AccelVrw => (1e-6, 1.0),
+            Param::GyroBiasRw => (0.0, 1e-3),
+            Param::AccelBiasRw => (0.0, 1e-1),
+            Param::MisalignmentRw => (0.0, 1e-2),
+            Param::FlexureOmega(_) => (0.05, 30.0),
+            Param::FlexureDamping(_) => (0.02, 0.95),
+            Param::FlexureSigma(_) => (1e-6, 0.05),
+        }
+    }
+}
+
+/// The model being learned: the configuration's quantities in the learner's own form.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelParams {
+    /// The configuration everything else comes from (matching, lever arm, priors...).
+    pub base: CalibConfig,
+    /// Continuous flexure per slave axis.
+    pub flexure: [FlexureAxis; 3],
+}
+
+impl ModelParams {
+    /// The learner's form of a configuration (its flexure converted per axis; an AR with
+    /// no continuous equivalent starts from [`DEFAULT_FLEXURE`]).
+    pub fn from_config(cfg: &CalibConfig) -> Self {
+        let uniform = [cfg.flexure_ar[0], cfg.flexure_ar[1], cfg.flexure_sigma_rad];
+        let axes = cfg.flexure_axes.unwrap_or([uniform; 3]);
+        let t = cfg.filter_period_s;
+        Self {
+            flexure: axes.map(|a| FlexureAxis::from_ar(a, t).unwrap_or(DEFAULT_FLEXURE)),
+            base: cfg.clone(),
+        }
+    }
+
+    /// The configuration these values make: the flexure per axis as AR(2) at the
+    /// filter period, identification off (the model is learned).
+    pub fn config(&self) -> CalibConfig {
+        let mut c = self.base.clone();
+        let t = c.filter_period_s;
+        c.flexure_axes = Some(self.flexure.map(|f| f.ar(t)));
+        c.identify_flexure = false;
+        c.tune = false;
+        c
+    }
+
+    /// The value of a quantity.
+    pub fn get(&self, p: Param) -> f64 {
+        let c = &self.base;
+        let fx = |k: usize| self.flexure.get(k).copied().unwrap_or(DEFAULT_FLEXURE);
+        match p {
+            Param::VelocityNoise => c.velocity_noise_mps,
+            Param::AttitudeNoise => c.attitude_noise_rad,
+            Param::RateNoise => c.rate_noise_radps,
+            Param::GyroArw => c.gyro_arw_rad_rs,
+            Param::AccelVrw => c.accel_vrw_mps_rs,
+            Param::GyroBiasRw => c.gyro_bias_rw,
+            Param::AccelBiasRw => c.accel_bias_rw,
+            Param::MisalignmentRw => c.misalignment_rw_rad_rs,
+            Param::FlexureOmega(k) => fx(k).omega_rad_s,
+            Param::FlexureDamping(k) => fx(k).damping,
+            Param::FlexureSigma(k) => fx(k).sigma_rad,
+        }
+    }
+
+    /// Sets a quantity, clamped to its bounds.
+    pub fn set(&mut self, p: Param, value: f64) {
+        let (lo, hi) = p.bounds();
+        let v = value.clamp(lo, hi);
+        let c = &mut self.base;
+        match p {
+            Param::VelocityNoise => c.velocity_noise_mps = v,
+            Param::AttitudeNoise => c.attitude_noise_rad = v,
+            Param::RateNoise => c.rate_noise_radps = v,
+            Param::GyroArw => c.gyro_arw_rad_rs = v,
+            Param::AccelVrw => c.accel_vrw_mps_rs = v,
+            Param::GyroBiasRw => c.gyro_bias_rw = v,
+            Param::AccelBiasRw => c.accel_bias_rw = v,
+            Param::MisalignmentRw => c.misalignment_rw_rad_rs = v,
+            Param::FlexureOmega(k) => {
+                if let Some(f) = self.flexure.get_mut(k) {
+                    f.omega_rad_s = v;
+                }
+            }
+            Param::FlexureDamping(k) => {
+                if let Some(f) = self.flexure.get_mut(k) {
+                    f.damping = v;
+                }
+            }
+            Param::FlexureSigma(k) => {
+                if let Some(f) = self.flexure.get_mut(k) {
+                    f.sigma_rad = v;
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flexure_round_trips_through_its_ar() {
+        let f = FlexureAxis {
+            omega_rad_s: 1.3,
+            damping: 0.22,
+            sigma_rad: 4e-4,
+        };
+        let back = FlexureAxis::from_ar(f.ar(0.01), 0.01).expect("under-damped");
+        assert!((back.omega_rad_s / 1.3 - 1.0).abs() < 1e-9);
+        assert!((back.damping / 0.22 - 1.0).abs() < 1e-9);
+        assert!((back.sigma_rad / 4e-4 - 1.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn set_clamps_to_bounds() {
+        let mut m = ModelParams::from_config(&CalibConfig::default());
+        m.set(Param::AttitudeNoise, 0.0);
+        assert_eq!(m.get(Param::AttitudeNoise), Param::AttitudeNoise.bounds().0);
+        m.set(Param::FlexureDamping(2), 5.0);
+        assert_eq!(m.get(Param::FlexureDamping(2)), 0.95);
+    }
+}

@@ -1,0 +1,354 @@
+//! Maximum likelihood of the innovations by a bounded coordinate search.
+//!
+//! The filter's innovations `ν_k` with predicted variances `s_k` give the exact
+//! Gaussian log-likelihood of the data under the model (the prediction-error
+//! decomposition): `−2 ln L = Σ ln s_k + ν_k²/s_k + const`. Each quantity is searched in
+//! turn on a log scale: the likelihood at ×¼, ×½, ×2, ×4 of the current value (evaluated
+//! in parallel), the walk continued while the edge keeps winning, then a parabola through
+//! the best point and its neighbours. A second sweep refines with half the step. The
+//! parabola's curvature is the observed information, whose inverse square root is the
+//! σ of the log-value. A process noise that may be absent (bias instability, a drifting
+//! misalignment) starts from a ladder of sizes that includes zero.
+//!
+//! Flexure quantities come three at a time (one per slave axis): each trial value is
+//! applied to the three axes at once, and each axis takes the value its own channels'
+//! likelihood prefers (attitude and angular rate of that axis, which that axis's
+//! flexure drives); the combination is kept only if the total likelihood agrees.
+
+use super::flexure::flexure_from_estimates;
+use super::params::{ModelParams, Param};
+use crate::calib::run::{run, CalibResult, Precision};
+use crate::recording::Recording;
+use rayon::prelude::*;
+
+/// −2 log-likelihood of one run, in total and per channel axis (`[channel][axis]`).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Likelihood {
+    /// Sum over every scalar innovation of `ln s + ν²/s`.
+    pub total: f64,
+    /// The same per channel (velocity, attitude, angular rate) and axis.
+    pub by_channel: [[f64; 3]; 3],
+}
+
+impl Likelihood {
+    /// Of a calibration run's innovations.
+    pub fn of(res: &CalibResult) -> Self {
+        let mut l = Self::default();
+        for i in &res.innovations {
+            let term = i.variance.ln() + i.value * i.value / i.variance;
+            l.total += term;
+            if let Some(slot) = l
+                .by_channel
+                .get_mut(i.channel)
+                .and_then(|c| c.get_mut(i.axis))
+            {
+                *slot += term;
+            }
+        }
+        l
+    }
+
+    /// The part one slave axis's flexure drives: attitude and angular rate of that axis.
+    fn axis(&self, k: usize) -> f64 {
+        let at = |c: usize| {
+            self.by_channel
+                .get(c)
+                .and_then(|a| a.get(k))
+                .copied()
+                .unwrap_or(0.0)
+        };
+        at(1) + at(2)
+    }
+}
+
+/// One quantity's outcome.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct LearnedValue {
+    /// The quantity.
+    pub param: Param,
+    /// Its name.
+    pub name: String,
+    /// Where the search started.
+    pub start: f64,
+    /// The learned value.
+    pub value: f64,
+    /// σ of the learned value from the likelihood's curvature (same unit), when the
+    /// curvature was positive; `None` at a bound or a flat likelihood.
+    pub sigma: Option<f64>,
+    /// Log-likelihood gained while this quantity moved (½ of the −2 ln L drop).
+    pub log_likelihood_gain: f64,
+}
+
+/// The search's bookkeeping.
+pub struct Search<'a> {
+    rec: &'a Recording,
+    /// The current model.
+    pub model: ModelParams,
+    /// Its likelihood.
+    pub current: Likelihood,
+    /// Filter runs so far.
+    pub evaluations: usize,
+    /// Per quantity: start, value, σ, gain.
+    pub values: Vec<LearnedValue>,
+}
+
+fn evaluate(rec: &Recording, m: &ModelParams) -> Option<Likelihood> {
+    let res = run(rec, &m.config(), Precision::F64).ok()?;
+    let l = Likelihood::of(&res);
+    l.total.is_finite().then_some(l)
+}
+
+impl<'a> Search<'a> {
+    /// Starts from `model`, evaluated once.
+    pub fn new(rec: &'a Recording, model: ModelParams) -> Result<Self, String> {
+        let current = evaluate(rec, &model)
+            .ok_or("the starting model does not run on the recording (no finite likelihood)")?;
+        Ok(Self {
+            rec,
+            model,
+            current,
+            evaluations: 1,
+            values: Vec::new(),
+        })
+    }
+
+    fn eval_all(&mut self, models: &[ModelParams]) -> Vec<Option<Likelihood>> {
+        self.evaluations += models.len();
+        let rec = self.rec;
+        models.par_iter().map(|m| evaluate(rec, m)).collect()
+    }
+
+    fn record(&mut self, p: Param, start: f64, sigma: Option<f64>, gain_neg2: f64) {
+        let value = self.model.get(p);
+        if let Some(v) = self.values.iter_mut().find(|v| v.param == p) {
+            v.value = value;
+            v.sigma = sigma;
+            v.log_likelihood_gain += gain_neg2 / 2.0;
+        } else {
+            self.values.push(LearnedValue {
+                param: p,
+                name: p.name(),
+                start,
+                value,
+                sigma,
+                log_likelihood_gain: gain_neg2 / 2.0,
+            });
+        }
+    }
+
+    /// A trial model: `params` each set to `f(current value)`.
+    fn trial(&self, params: &[Param], f: impl Fn(Param, f64) -> f64) -> ModelParams {
+        let mut m = self.model.clone();
+        for &p in params {
+            m.set(p, f(p, self.model.get(p)));
+        }
+        m
+    }
+
+    /// For a process noise at zero: tries a ladder of sizes around `scale`; keeps the
+    /// best (zero included).
+    fn ladder(&mut self, p: Param, scale: f64) {
+        let start = self.model.get(p);
+        if start > 0.0 {
+            return;
+        }
+        let sizes = [1e-3, 1e-2, 1e-1, 1.0].map(|k| k * scale);
+        let models: Vec<ModelParams> = sizes.iter().map(|&s| self.trial(&[p], |_, _| s)).collect();
+        let results = self.eval_all(&models);
+        let before = self.current.total;
+        if let Some((m, l)) = models
+            .into_iter()
+            .zip(results)
+            .filter_map(|(m, l)| l.map(|l| (m, l)))
+            .min_by(|a, b| a.1.total.total_cmp(&b.1.total))
+        {
+            if l.total < self.current.total {
+                self.model = m;
+                self.current = l;
+            }
+        }
+        let gain = before - self.current.total;
+        self.record(p, start, None, gain);
+    }
+
+    /// Searches one quantity (or one per axis, `params` of the same kind) on a log scale
+    /// with step `h` (natural log units).
+    pub fn line(&mut self, params: &[Param], h: f64) {
+        let starts: Vec<f64> = params.iter().map(|&p| self.model.get(p)).collect();
+        if params.iter().any(|&p| self.model.get(p) <= 0.0) {
+            return; // a vanished process noise stays at zero (the ladder chose it)
+        }
+        let before = self.current.total;
+        let per_axis = params.len() > 1;
+        // Offsets (in steps) tried around the current centre, and what each gave.
+        let mut tried: Vec<(f64, Likelihood)> = vec![(0.0, self.current)];
+        let mut centre = 0.0;
+        for _ in 0..4 {
+            let offsets: Vec<f64> = [-2.0, -1.0, 1.0, 2.0]
+                .iter()
+                .map(|o| centre + o)
+                .filter(|o| !tried.iter().any(|(t, _)| (t - o).abs() < 1e-9))
+                .collect();
+            let models: Vec<ModelParams> = offsets
+                .iter()
+                .map(|o| self.trial(params, |_, v| v * (o * h).exp()))
+                .collect();
+            let results = self.eval_all(&models);
+            for (o, l) in offsets.into_iter().zip(results) {
+                if let Some(l) = l {
+                    tried.push((o, l));
+                }
+            }
+            let best = tried
+                .iter()
+                .min_by(|a, b| a.1.total.total_cmp(&b.1.total))
+                .map(|t| t.0)
+                .unwrap_or(0.0);
+            let lo = tried.iter().map(|t| t.0).fold(f64::INFINITY, f64::min);
+            let hi = tried.iter().map(|t| t.0).fold(f64::NEG_INFINITY, f64::max);
+            centre = best;
+            // Stop once the best has tried neighbours on both sides.
+            if best > lo && best < hi {
+                break;
+            }
+        }
+        let pick = |score: &dyn Fn(&Likelihood) -> f64| -> (f64, Option<f64>) {
+            let mut pts: Vec<(f64, f64)> = tried.iter().map(|(o, l)| (*o, score(l))).collect();
+            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let (ib, _) = pts
+                .iter()
+                .enumerate()
+                .min_by(|a, b| a.1 .1.total_cmp(&b.1 .1))
+                .map(|(i, p)| (i, *p))
+                .unwrap_or((0, (0.0, 0.0)));
+            let best = pts.get(ib).map(|p| p.0).unwrap_or(0.0);
+            match (
+                ib.checked_sub(1).and_then(|i| pts.get(i)),
+                pts.get(ib),
+                pts.get(ib + 1),
+            ) {
+                (Some(a), Some(b), Some(c)) => parabola_vertex(*a, *b, *c, h)
+                    .map(|(v, curv)| (v, Some(curv)))
+                    .unwrap_or((best, None)),
+                _ => (best, None),
+            }
+        };
+        // Each axis picks by its own channels; one quantity by the total.
+        let picks: Vec<(f64, Option<f64>)> = if per_axis {
+            (0..params.len())
+                .map(|k| pick(&|l: &Likelihood| l.axis(k)))
+                .collect()
+        } else {
+            vec![pick(&|l: &Likelihood| l.total)]
+        };
+        let mut candidate = self.model.clone();
+        for (k, &p) in params.iter().enumerate() {
+            let (o, _) = picks.get(k).copied().unwrap_or((0.0, None));
+            candidate.set(p, self.model.get(p) * (o * h).exp());
+        }
+        let best_tried = tried
+            .iter()
+            .min_by(|a, b| a.1.total.total_cmp(&b.1.total))
+            .copied();
+        if let Some(l) = self.eval_all(std::slice::from_ref(&candidate))[0] {
+            if l.total < self.current.total && best_tried.is_none_or(|(_, bt)| l.total <= bt.total)
+            {
+                self.model = candidate;
+                self.current = l;
+            } else if let Some((o, bt)) = best_tried {
+                if bt.total < self.current.total {
+                    self.model = self.trial(params, |_, v| v * (o * h).exp());
+                    self.current = bt;
+                }
+            }
+        }
+        let gain = (before - self.current.total) / params.len() as f64;
+        for (k, &p) in params.iter().enumerate() {
+            // σ of the log-value → σ of the value (first order).
+            let sigma = picks
+                .get(k)
+                .and_then(|(_, c)| *c)
+                .map(|curv| self.model.get(p) / curv.sqrt());
+            self.record(p, starts.get(k).copied().unwrap_or(0.0), sigma, gain);
+        }
+    }
+
+    /// Replaces the flexure of the axes given (from the filter's own estimate,
+    /// `super::flexure`) and re-evaluates: the flexure is identified, not searched.
+    pub fn identify_flexure(&mut self) {
+        let cfg = self.model.config();
+        self.evaluations += 1;
+        let Ok(res) = run(self.rec, &cfg, Precision::F64) else {
+            return;
+        };
+        let axes = flexure_from_estimates(&res.rows, cfg.filter_period_s);
+        let starts = self.model.flexure;
+        let mut m = self.model.clone();
+        for (k, a) in axes.iter().enumerate() {
+            if let (Some(a), Some(slot)) = (a, m.flexure.get_mut(k)) {
+                *slot = *a;
+            }
+        }
+        let Some(l) = self.eval_all(std::slice::from_ref(&m))[0] else {
+            return;
+        };
+        let gain = (self.current.total - l.total) / 9.0;
+        self.model = m;
+        self.current = l;
+        for (k, st) in starts.iter().enumerate() {
+            for (p, start) in [
+                (Param::FlexureOmega(k), st.omega_rad_s),
+                (Param::FlexureDamping(k), st.damping),
+                (Param::FlexureSigma(k), st.sigma_rad),
+            ] {
+                self.record(p, start, None, gain);
+            }
+        }
+    }
+
+    /// A process noise that may be absent: the ladder, then (if it is not zero) a line.
+    pub fn vanishing(&mut self, p: Param, scale: f64, h: f64) {
+        self.ladder(p, scale);
+        if self.model.get(p) > 0.0 {
+            self.line(&[p], h);
+        }
+    }
+}
+
+/// Vertex of the parabola through three points `(offset, −2 ln L)` spaced by one step,
+/// and the observed information of the log-value there (½ d²(−2 ln L)/du², u in natural
+/// log units: step `h`). `None` when the points are not convex.
+fn parabola_vertex(a: (f64, f64), b: (f64, f64), c: (f64, f64), h: f64) -> Option<(f64, f64)> {
+    let (x0, x1, x2) = (a.0, b.0, c.0);
+    let (y0, y1, y2) = (a.1, b.1, c.1);
+    let d01 = (y1 - y0) / (x1 - x0);
+    let d12 = (y2 - y1) / (x2 - x1);
+    let second = 2.0 * (d12 - d01) / (x2 - x0); // d²y/dx², x in steps
+    if !(second > 0.0 && second.is_finite()) {
+        return None;
+    }
+    // The derivative is d01 at the midpoint of x0 and x1 and falls at rate `second`.
+    let v = ((x0 + x1) / 2.0 - d01 / second).clamp(x0, x2);
+    let info = 0.5 * second / (h * h);
+    Some((v, info))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parabola_finds_the_vertex_and_the_curvature() {
+        // y = 3 (x − 0.4)² + 1 in steps of h = 0.5: d²y/du² = 6 / h².
+        let y = |x: f64| 3.0 * (x - 0.4) * (x - 0.4) + 1.0;
+        let (v, info) =
+            parabola_vertex((-1.0, y(-1.0)), (0.0, y(0.0)), (1.0, y(1.0)), 0.5).expect("convex");
+        assert!((v - 0.4).abs() < 1e-12, "{v}");
+        assert!((info - 0.5 * 6.0 / 0.25).abs() < 1e-9, "{info}");
+    }
+
+    #[test]
+    fn concave_points_give_no_vertex() {
+        assert!(parabola_vertex((-1.0, 0.0), (0.0, 1.0), (1.0, 0.0), 1.0).is_none());
+    }
+}
