@@ -114,6 +114,16 @@ pub fn learn_and_say(
         l.holdout.start.neg2ll,
         if l.adopted { "adopted" } else { "NOT adopted, the start is kept" }
     );
+    if let Some(inc) = &l.increments {
+        eprintln!(
+            "flexcal:   from the increments ({:.0}-{:.0} Hz): gyro angle random walk {:.3e} rad/√s (axes {:.3e}), accelerometer white floor {:.3e} m/s/√s",
+            inc.band_from_hz,
+            inc.band_to_hz,
+            inc.gyro_arw(),
+            inc.gyro_arw_rad_rs.map(|v| (v * 1e9).round() / 1e9)[0],
+            inc.accel_floor()
+        );
+    }
     for v in &l.values {
         let sigma = v.sigma.map(|s| format!(" ± {s:.3e}")).unwrap_or_default();
         eprintln!(

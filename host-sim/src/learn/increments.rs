@@ -47,7 +47,8 @@ fn median3(mut v: [f64; 3]) -> f64 {
 }
 
 /// The white level `a` of `psd(f) ≈ a + b/f²` fitted by least squares over the bins in
-/// `[from, to]` Hz, `a` kept non-negative (`b` is the red part: the flexure's rate).
+/// `[from, to]` Hz (`b` is the red part: the flexure's rate). Where the band does not
+/// follow that shape, the band's mean density (an upper bound).
 fn white_level(freq_hz: &[f64], density: &[f64], from: f64, to: f64) -> f64 {
     // Normal equations of the two-term model.
     let (mut s11, mut s12, mut s22, mut r1, mut r2) = (0.0, 0.0, 0.0, 0.0, 0.0);
@@ -68,11 +69,13 @@ fn white_level(freq_hz: &[f64], density: &[f64], from: f64, to: f64) -> f64 {
     }
     let a = (r1 * s22 - r2 * s12) / det;
     let b = (s11 * r2 - s12 * r1) / det;
-    if b < 0.0 {
-        // No red part in the band: the white level is the mean.
-        r1 / s11
+    let mean = r1 / s11;
+    if b < 0.0 || a < 0.1 * mean {
+        // No red part in the band, or a band that is not white plus red (vibration
+        // peaks on a vehicle): the mean density, an upper bound of the white level.
+        mean
     } else {
-        a.max(0.0)
+        a
     }
 }
 

@@ -148,6 +148,18 @@ pub fn learn(
             s.line(&[Param::RateNoise], h);
         }
         s.identify_flexure();
+        // The sensor's grade (with the flexure known: a wrong flexure model makes any
+        // prior look too narrow): decades first, then octaves.
+        for p in [
+            Param::InitialGyroBias,
+            Param::InitialAccelBias,
+            Param::InitialMisalignment,
+        ] {
+            if sweep == 0 {
+                s.line(&[p], std::f64::consts::LN_10);
+            }
+            s.line(&[p], h);
+        }
         if sweep == 0 {
             continue;
         }

@@ -76,6 +76,12 @@ pub enum Param {
     AccelBiasRw,
     /// Misalignment random walk (rad/√s).
     MisalignmentRw,
+    /// Initial σ of the gyro bias (rad/s): the sensor's grade.
+    InitialGyroBias,
+    /// Initial σ of the accelerometer bias (m/s²).
+    InitialAccelBias,
+    /// Initial σ of the mounting misalignment (rad).
+    InitialMisalignment,
     /// Flexure natural frequency of a slave axis (rad/s).
     FlexureOmega(usize),
     /// Flexure damping ratio of a slave axis.
@@ -98,6 +104,9 @@ impl Param {
             Param::GyroBiasRw => "gyro_bias_rw".into(),
             Param::AccelBiasRw => "accel_bias_rw".into(),
             Param::MisalignmentRw => "misalignment_rw_rad_rs".into(),
+            Param::InitialGyroBias => "initial_gyro_bias_radps".into(),
+            Param::InitialAccelBias => "initial_accel_bias_mps2".into(),
+            Param::InitialMisalignment => "initial_misalignment_rad".into(),
             Param::FlexureOmega(k) => format!("flexure_omega_rad_s_{}", ax(k)),
             Param::FlexureDamping(k) => format!("flexure_damping_{}", ax(k)),
             Param::FlexureSigma(k) => format!("flexure_sigma_rad_{}", ax(k)),
@@ -126,6 +135,11 @@ impl Param {
             Param::GyroBiasRw => (0.0, 1e-3),
             Param::AccelBiasRw => (0.0, 1e-1),
             Param::MisalignmentRw => (0.0, 1e-2),
+            // Initial σ: from 0.01 °/h to 10 °/s, 1 µg to 1 g, 1″ to 45°; the learner
+            // never takes them below where it started (`ModelParams::prior_floor`).
+            Param::InitialGyroBias => (5e-8, 0.2),
+            Param::InitialAccelBias => (1e-5, 10.0),
+            Param::InitialMisalignment => (5e-6, 0.8),
             Param::FlexureOmega(_) => (0.05, 30.0),
             Param::FlexureDamping(_) => (0.02, 0.95),
             Param::FlexureSigma(_) => (1e-6, 0.05),
@@ -140,6 +154,12 @@ pub struct ModelParams {
     pub base: CalibConfig,
     /// Continuous flexure per slave axis.
     pub flexure: [FlexureAxis; 3],
+    /// The initial σ (gyro bias, accelerometer bias, misalignment) the search started
+    /// from: a floor. One recording holds one draw of each constant, whose likelihood
+    /// would shrink its prior to its own size (and the filter would then be
+    /// overconfident on the next); a prior may widen to fit a sensor of a worse grade,
+    /// never narrow.
+    pub prior_floor: [f64; 3],
 }
 
 impl ModelParams {
@@ -151,6 +171,11 @@ impl ModelParams {
         let t = cfg.filter_period_s;
         Self {
             flexure: axes.map(|a| FlexureAxis::from_ar(a, t).unwrap_or(DEFAULT_FLEXURE)),
+            prior_floor: [
+                cfg.initial_gyro_bias_radps,
+                cfg.initial_accel_bias_mps2,
+                cfg.initial_misalignment_rad,
+            ],
             base: cfg.clone(),
         }
     }
@@ -179,6 +204,9 @@ impl ModelParams {
             Param::GyroBiasRw => c.gyro_bias_rw,
             Param::AccelBiasRw => c.accel_bias_rw,
             Param::MisalignmentRw => c.misalignment_rw_rad_rs,
+            Param::InitialGyroBias => c.initial_gyro_bias_radps,
+            Param::InitialAccelBias => c.initial_accel_bias_mps2,
+            Param::InitialMisalignment => c.initial_misalignment_rad,
             Param::FlexureOmega(k) => fx(k).omega_rad_s,
             Param::FlexureDamping(k) => fx(k).damping,
             Param::FlexureSigma(k) => fx(k).sigma_rad,
@@ -188,7 +216,13 @@ impl ModelParams {
     /// Sets a quantity, clamped to its bounds.
     pub fn set(&mut self, p: Param, value: f64) {
         let (lo, hi) = p.bounds();
-        let v = value.clamp(lo, hi);
+        let floor = match p {
+            Param::InitialGyroBias => self.prior_floor[0],
+            Param::InitialAccelBias => self.prior_floor[1],
+            Param::InitialMisalignment => self.prior_floor[2],
+            _ => lo,
+        };
+        let v = value.clamp(floor.clamp(lo, hi), hi);
         let c = &mut self.base;
         match p {
             Param::VelocityNoise => c.velocity_noise_mps = v,
@@ -199,6 +233,9 @@ impl ModelParams {
             Param::GyroBiasRw => c.gyro_bias_rw = v,
             Param::AccelBiasRw => c.accel_bias_rw = v,
             Param::MisalignmentRw => c.misalignment_rw_rad_rs = v,
+            Param::InitialGyroBias => c.initial_gyro_bias_radps = v,
+            Param::InitialAccelBias => c.initial_accel_bias_mps2 = v,
+            Param::InitialMisalignment => c.initial_misalignment_rad = v,
             Param::FlexureOmega(k) => {
                 if let Some(f) = self.flexure.get_mut(k) {
                     f.omega_rad_s = v;
@@ -242,5 +279,11 @@ mod tests {
         assert_eq!(m.get(Param::AttitudeNoise), Param::AttitudeNoise.bounds().0);
         m.set(Param::FlexureDamping(2), 5.0);
         assert_eq!(m.get(Param::FlexureDamping(2)), 0.95);
+        // A prior never narrows below where the search started.
+        let start = m.get(Param::InitialGyroBias);
+        m.set(Param::InitialGyroBias, start / 10.0);
+        assert_eq!(m.get(Param::InitialGyroBias), start);
+        m.set(Param::InitialGyroBias, start * 10.0);
+        assert_eq!(m.get(Param::InitialGyroBias), start * 10.0);
     }
 }
