@@ -2,7 +2,12 @@
 //! filter can carry after the declared ones. The diagnosis adds the block of an effect
 //! it finds in the residuals; the board runs the same layout from its configuration.
 //!
-//! Every block is a constant (no process noise). All but the delay stay in the filter's
+//! Every block but the master's errors is a constant (no process noise). The master's
+//! smooth output errors (`master_attitude_error`, `master_velocity_error`) are
+//! first-order Gauss-Markov processes with the correlation time
+//! [`MASTER_ERROR_CORRELATION_S`] and the block's prior σ as their stationary σ: a real
+//! master's errors are slow, not white, and a constant misalignment can only be told
+//! from them by their time behaviour. All but the delay stay in the filter's
 //! state, not fed back into the nominal solution, so their estimate and σ are read from
 //! the filter at any time; the delay's state is the error of the engine's nominal τ̂,
 //! fed back once known to 1 ms (`Engine::effect_estimate` adds the two). Conventions (the
@@ -18,6 +23,8 @@
 //! | `lever_arm_error` | `δr` (3, m, master body) | the true arm is `r0 + δr` | z_v += C_bm^n [ω_eb×] δr |
 //! | `gyro_g_sensitivity` | `G` (9, rad/s per m/s², row-major) | gyro measures `ω + G f` | ψ̇ += G f |
 //! | `lever_arm_coupling` | `δR` (9, m/rad, row-major) | the true bending is `R + δR` | z_v += C_bm^n ([ω_eb×] δR θ + δR θ̇) |
+//! | `master_attitude_error` | `φ_m` (3, rad, ENU) | the master reports `Exp(φ_m) C_bm^n` | z_a −= Ĉ_bs^nᵀ φ_m; φ̇_m = −φ_m/τ + w |
+//! | `master_velocity_error` | `δv_m` (3, m/s, ENU) | the master reports `v_m + δv_m` | z_v −= δv_m; δv̇_m = −δv_m/τ + w |
 //!
 //! `docs/diagnosis.md` derives each column; `core/tests/linearization_f.rs` and
 //! `host-sim/tests/linearization_aug.rs` check them against the nonlinear models.
@@ -29,6 +36,12 @@ use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 /// Most effects one layout carries at a time.
 pub const MAX_EFFECTS: usize = 4;
+
+/// Correlation time of the master's smooth output errors (s), fixed: the board's
+/// Config carries each block's σ, not a time constant. A value inside the range real
+/// master errors show (tens to hundreds of seconds); `docs/model-learning.md` measures
+/// what a different true correlation time costs.
+pub const MASTER_ERROR_CORRELATION_S: f64 = 60.0;
 
 /// A candidate effect: its name is the vocabulary of `diagnosis.json`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -49,6 +62,10 @@ pub enum Effect {
     GyroGSensitivity,
     /// Error of the bending matrix R of `r = r0 + R θ` (m/rad, row-major).
     LeverArmCoupling,
+    /// The master's smooth attitude error, ENU (rad): Gauss-Markov.
+    MasterAttitudeError,
+    /// The master's smooth velocity error, ENU (m/s): Gauss-Markov.
+    MasterVelocityError,
 }
 
 impl Effect {
@@ -63,6 +80,19 @@ impl Effect {
         Effect::GyroGSensitivity,
         Effect::LeverArmCoupling,
     ];
+
+    /// The master's smooth errors: blocks of the noise model (chosen by the model
+    /// learner), not sensor or installation effects the diagnosis looks for.
+    pub const MASTER_ERRORS: [Effect; 2] =
+        [Effect::MasterAttitudeError, Effect::MasterVelocityError];
+
+    /// Whether the block is a Gauss-Markov process (else a constant).
+    pub const fn is_gauss_markov(self) -> bool {
+        matches!(
+            self,
+            Effect::MasterAttitudeError | Effect::MasterVelocityError
+        )
+    }
 
     /// Number of states of the block.
     pub const fn states(self) -> usize {
@@ -84,6 +114,8 @@ impl Effect {
             Effect::LeverArmError => "lever_arm_error",
             Effect::GyroGSensitivity => "gyro_g_sensitivity",
             Effect::LeverArmCoupling => "lever_arm_coupling",
+            Effect::MasterAttitudeError => "master_attitude_error",
+            Effect::MasterVelocityError => "master_velocity_error",
         }
     }
 
@@ -96,12 +128,18 @@ impl Effect {
             Effect::LeverArmError => "m",
             Effect::GyroGSensitivity => "rad/s/(m/s^2)",
             Effect::LeverArmCoupling => "m/rad",
+            Effect::MasterAttitudeError => "rad",
+            Effect::MasterVelocityError => "m/s",
         }
     }
 
     /// The effect of a name, if it is one of the vocabulary.
     pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.iter().copied().find(|e| e.name() == name)
+        Self::ALL
+            .iter()
+            .chain(&Self::MASTER_ERRORS)
+            .copied()
+            .find(|e| e.name() == name)
     }
 
     /// Wire code of the effect (link Config message); `from_code` inverts it.
@@ -115,12 +153,18 @@ impl Effect {
             Effect::LeverArmError => 6,
             Effect::GyroGSensitivity => 7,
             Effect::LeverArmCoupling => 8,
+            Effect::MasterAttitudeError => 9,
+            Effect::MasterVelocityError => 10,
         }
     }
 
     /// The effect of a wire code.
     pub fn from_code(code: u8) -> Option<Self> {
-        Self::ALL.iter().copied().find(|e| e.code() == code)
+        Self::ALL
+            .iter()
+            .chain(&Self::MASTER_ERRORS)
+            .copied()
+            .find(|e| e.code() == code)
     }
 
     /// The smallest magnitude (SI, any state of the block) the diagnosis reports the
@@ -137,6 +181,8 @@ impl Effect {
     /// A prior σ wide enough for any plausible sensor or installation (SI): 1000 ppm,
     /// 1 mrad, 0.1 s, 2 m, 100 °/h per g, 100 m/rad. The filter's evidence for an effect
     /// is its estimate against its posterior σ, which a wide prior leaves to the data.
+    /// For the master's errors it is their stationary σ, a model quantity (10″, 2 cm/s
+    /// here; the learner sets it from the data).
     pub fn default_prior_sigma(self) -> f64 {
         match self {
             Effect::GyroScaleFactor | Effect::AccelScaleFactor => 1e-3,
@@ -145,6 +191,8 @@ impl Effect {
             Effect::LeverArmError => 2.0,
             Effect::GyroGSensitivity => 100.0 * (core::f64::consts::PI / 180.0 / 3600.0) / 9.806_65,
             Effect::LeverArmCoupling => 100.0,
+            Effect::MasterAttitudeError => 5e-5,
+            Effect::MasterVelocityError => 0.02,
         }
     }
 }
@@ -300,7 +348,29 @@ pub fn add_dynamics<T: Real, const S: usize>(
                 add_block(f, v_row, o, &(c_b_n * nonorthogonality_columns(f_b)))
             }
             Effect::GyroGSensitivity => add_block(f, psi_row, o, &row_major_columns(f_b)),
+            Effect::MasterAttitudeError | Effect::MasterVelocityError => {
+                let decay = -Matrix3::identity() / T::of(MASTER_ERROR_CORRELATION_S);
+                add_block(f, o, o, &decay)
+            }
             Effect::TimeDelay | Effect::LeverArmError | Effect::LeverArmCoupling => {}
+        }
+    }
+}
+
+/// Adds the discrete process noise of the Gauss-Markov blocks over a period `t` (s) to
+/// `q`: `σ² (1 − e^{−2t/τ})` per state keeps each at its stationary σ.
+pub fn add_process_noise<T: Real, const S: usize>(
+    q: &mut SMatrix<T, S, S>,
+    aug: &Augmentation<T>,
+    t: T,
+) {
+    for b in aug.blocks().filter(|b| b.effect.is_gauss_markov()) {
+        let decay = (-(t + t) / T::of(MASTER_ERROR_CORRELATION_S)).exp();
+        let v = b.prior_sigma * b.prior_sigma * (T::one() - decay);
+        for k in 0..b.effect.states() {
+            if let Some(e) = q.get_mut((b.offset + k, b.offset + k)) {
+                *e += v;
+            }
         }
     }
 }
@@ -323,6 +393,8 @@ pub struct Signature<T: Real> {
     pub w_ib_bs: Vector3<T>,
     /// Slave specific force, bias-corrected, slave body (m/s²).
     pub f_bs: Vector3<T>,
+    /// Slave attitude `Ĉ_bs^n` (the strapdown's).
+    pub c_bs_n: Matrix3<T>,
     /// Flexure angle estimate θ̂ (rad) and rate θ̂̇ (rad/s), slave body.
     pub theta: Vector3<T>,
     /// See `theta`.
@@ -386,6 +458,12 @@ pub fn add_measurement<T: Real, const S: usize>(
                     + sig.c_bm_n * row_major_columns(&sig.theta_rate);
                 add_columns(rows, o, &m);
             }
+            (Effect::MasterAttitudeError, Channel::Attitude) => {
+                add_columns(rows, o, &(-sig.c_bs_n.transpose()))
+            }
+            (Effect::MasterVelocityError, Channel::Velocity) => {
+                add_columns(rows, o, &(-Matrix3::identity()))
+            }
             _ => {}
         }
     }
@@ -433,6 +511,10 @@ mod tests {
             assert_eq!(Effect::from_name(e.name()), Some(e));
             assert_eq!(Effect::from_code(e.code()), Some(e));
         }
+        for e in Effect::MASTER_ERRORS {
+            assert_eq!(Effect::from_name(e.name()), Some(e));
+            assert_eq!(Effect::from_code(e.code()), Some(e));
+        }
         assert_eq!(Effect::from_name("clock_offset"), None);
         assert_eq!(Effect::from_code(0), None);
     }
@@ -444,5 +526,49 @@ mod tests {
         let m = Matrix3::new(0.0, n[0], n[1], n[0], 0.0, n[2], n[1], n[2], 0.0);
         let cols = nonorthogonality_columns(&w);
         assert!((cols * Vector3::from(n) - m * w).norm() < 1e-15);
+    }
+}
+
+#[cfg(test)]
+mod master_error_tests {
+    use super::*;
+    use crate::rotation::{exp_so3, log_so3};
+
+    /// The attitude column of a master attitude error against the matching's nonlinear
+    /// definition `z_a = Log(Exp(−μ̂) C_repᵀ Ĉ_bs^n)`, `C_rep = Exp(φ_m) C_bm^n`.
+    #[test]
+    fn attitude_column_matches_the_nonlinear_matching() {
+        let mu = Vector3::new(0.01, -0.02, 0.015);
+        let c_bm_n = exp_so3(&Vector3::new(0.2, -0.1, 1.3));
+        // The slave as the master sees it, plus a small attitude error.
+        let c_bs_n = c_bm_n * exp_so3(&(mu + Vector3::new(2e-4, -1e-4, 3e-4)));
+        let z = |phi: &Vector3<f64>| {
+            let c_rep = exp_so3(phi) * c_bm_n;
+            log_so3(&(exp_so3(&(-mu)) * c_rep.transpose() * c_bs_n))
+        };
+        let column: Matrix3<f64> = -c_bs_n.transpose();
+        let h = 1e-6;
+        for k in 0..3 {
+            let mut d = Vector3::zeros();
+            d[k] = h;
+            let numeric = (z(&d) - z(&(-d))) / (2.0 * h);
+            let err = (numeric - column.column(k)).norm();
+            assert!(err < 1e-3, "axis {k}: {numeric} vs {}", column.column(k));
+        }
+    }
+
+    #[test]
+    fn gauss_markov_blocks_keep_their_stationary_sigma() {
+        let a = Augmentation::<f64>::none()
+            .with(Effect::MasterVelocityError, 0.03)
+            .unwrap();
+        let t = 0.1;
+        let mut q = SMatrix::<f64, 24, 24>::zeros();
+        add_process_noise(&mut q, &a, t);
+        let phi = (-t / MASTER_ERROR_CORRELATION_S).exp();
+        // Stationary: σ² = φ² σ² + q.
+        let stationary = q[(N, N)] / (1.0 - phi * phi);
+        assert!((stationary.sqrt() / 0.03 - 1.0).abs() < 1e-12);
+        assert_eq!(q[(N - 1, N - 1)], 0.0);
     }
 }

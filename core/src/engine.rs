@@ -412,8 +412,22 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// What follows is a prediction of the innovations by the frozen calibration.
     pub fn freeze_calibration(&mut self) {
         self.kf.freeze(MU..TH);
-        self.kf.freeze(N..self.cfg.augmentation.dimension());
+        for b in self.cfg.augmentation.blocks() {
+            if !b.effect.is_gauss_markov() {
+                self.kf.freeze(b.offset..b.offset + b.effect.states());
+            }
+        }
         self.frozen = true;
+    }
+
+    /// The augmented states that are calibration constants (every block but the
+    /// master's Gauss-Markov errors, which go on being estimated when frozen).
+    fn calibrated_effect_states(&self) -> impl Iterator<Item = usize> + '_ {
+        self.cfg
+            .augmentation
+            .blocks()
+            .filter(|b| !b.effect.is_gauss_markov())
+            .flat_map(|b| b.offset..b.offset + b.effect.states())
     }
 
     /// The estimate of an augmented effect, if the layout carries it.
@@ -685,10 +699,11 @@ impl<T: Real, const S: usize> Engine<T, S> {
         let mut q = model::process_noise::<T, S>(&self.cfg.process_noise, &self.cfg.flexure, dtt);
         if self.frozen {
             // Frozen quantities take no process noise either (their random walks stop).
-            for i in (MU..TH).chain(N..self.cfg.augmentation.dimension()) {
+            for i in (MU..TH).chain(self.calibrated_effect_states()) {
                 mat::set(&mut q, i, i, T::zero());
             }
         }
+        augment::add_process_noise(&mut q, &self.cfg.augmentation, dtt);
         self.kf.predict(&phi, &q);
         self.counters.predictions += 1;
         // The next epoch; after a gap, restart the grid from this sample.
@@ -917,6 +932,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             w_dot_bs,
             w_ib_bs,
             f_bs,
+            c_bs_n,
             theta: block(TH) - block(THD) * T::of(self.flexure_lag(t_s)),
             theta_rate: block(THD),
         }

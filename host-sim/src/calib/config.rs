@@ -76,6 +76,13 @@ pub struct CalibConfig {
     /// Effects the filter carries beyond the declared 21 states, by their names in
     /// `diagnosis.json` (e.g. `["time_delay"]`): what `flexcal diagnose` recommends.
     pub effects: Vec<String>,
+    /// Stationary σ of the master's smooth attitude error (rad, per ENU axis) when
+    /// `effects` has `master_attitude_error` (a Gauss-Markov process of correlation
+    /// time `flexcal_core::augment::MASTER_ERROR_CORRELATION_S`).
+    pub master_attitude_error_rad: f64,
+    /// Stationary σ of the master's smooth velocity error (m/s, per ENU axis) when
+    /// `effects` has `master_velocity_error`.
+    pub master_velocity_error_mps: f64,
     /// Starting value of the master delay (s) when `effects` has `time_delay`: a
     /// previous estimate, so the delay's linearization holds from the start.
     pub initial_delay_s: f64,
@@ -121,6 +128,8 @@ impl CalibConfig {
             initial_flexure_rad: 1e-3,
             gate_sigma: 5.0,
             effects: Vec::new(),
+            master_attitude_error_rad: Effect::MasterAttitudeError.default_prior_sigma(),
+            master_velocity_error_mps: Effect::MasterVelocityError.default_prior_sigma(),
             initial_delay_s: 0.0,
             tune: false,
         }
@@ -132,6 +141,23 @@ impl CalibConfig {
     /// states for (scale factors, non-orthogonality) are *not* declared.
     pub fn declared_for(sc: &Scenario, t: f64) -> Self {
         let arw = sc.slave_imu.gyro_arw_deg_rh.to_radians() / 60.0;
+        let gauss_markov = |sigma_arcmin: f64, omega_rad_s: f64, damping: f64| {
+            let ar = ArAxis::from_gauss_markov(
+                omega_rad_s,
+                damping,
+                (sigma_arcmin / 60.0).to_radians(),
+                t,
+            );
+            [ar.a1, ar.a2, ar.sigma_rad]
+        };
+        let flexure_axes = match sc.flexure {
+            FlexureSpec::GaussMarkovAxes {
+                sigma_arcmin,
+                omega_rad_s,
+                damping,
+            } => Some([0, 1, 2].map(|k| gauss_markov(sigma_arcmin[k], omega_rad_s[k], damping[k]))),
+            _ => None,
+        };
         let (flexure_ar, flexure_sigma_rad) = match sc.flexure {
             FlexureSpec::None => ([0.0, 0.0], 1e-9),
             FlexureSpec::Ar {
@@ -144,13 +170,13 @@ impl CalibConfig {
                 omega_rad_s,
                 damping,
             } => {
-                let ar = ArAxis::from_gauss_markov(
-                    omega_rad_s,
-                    damping,
-                    (sigma_arcmin / 60.0).to_radians(),
-                    t,
-                );
-                ([ar.a1, ar.a2], ar.sigma_rad)
+                let [a1, a2, s] = gauss_markov(sigma_arcmin, omega_rad_s, damping);
+                ([a1, a2], s)
+            }
+            // Per axis in `flexure_axes`; the uniform fields keep the x axis.
+            FlexureSpec::GaussMarkovAxes { .. } => {
+                let [a1, a2, s] = flexure_axes.map(|a| a[0]).unwrap_or([0.0, 0.0, 1e-9]);
+                ([a1, a2], s)
             }
         };
         let mut matching = vec!["velocity".to_string(), "attitude".to_string()];
@@ -167,7 +193,7 @@ impl CalibConfig {
             flexure_ar,
             flexure_sigma_rad,
             identify_flexure: false,
-            flexure_axes: None,
+            flexure_axes,
             gyro_arw_rad_rs: arw,
             accel_vrw_mps_rs: sc.slave_imu.accel_vrw_mps_rh / 60.0,
             gyro_bias_rw: 0.0,
@@ -225,21 +251,25 @@ impl CalibConfig {
         self.augmentation::<f64>().map(|_| ())
     }
 
-    /// The layout of `effects`, each with its default prior σ.
+    /// The layout of `effects`, each with its default prior σ (the master's smooth
+    /// errors with their configured stationary σ).
     pub fn augmentation<T: Real>(&self) -> Result<Augmentation<T>, String> {
         let mut aug = Augmentation::none();
         for name in &self.effects {
             let effect = parse_effect(name).map_err(|e| format!("`effects`: {e}"))?;
-            aug = aug
-                .with(effect, T::of(effect.default_prior_sigma()))
-                .map_err(|e| match e {
-                    AugmentError::Duplicate => format!("`effects`: `{name}` is listed twice"),
-                    AugmentError::Full => format!(
-                        "`effects`: at most {MAX_EFFECTS} effects at a time, got {}",
-                        self.effects.len()
-                    ),
-                    AugmentError::BadPrior => format!("`effects`: bad prior σ for `{name}`"),
-                })?;
+            let prior = match effect {
+                Effect::MasterAttitudeError => self.master_attitude_error_rad,
+                Effect::MasterVelocityError => self.master_velocity_error_mps,
+                _ => effect.default_prior_sigma(),
+            };
+            aug = aug.with(effect, T::of(prior)).map_err(|e| match e {
+                AugmentError::Duplicate => format!("`effects`: `{name}` is listed twice"),
+                AugmentError::Full => format!(
+                    "`effects`: at most {MAX_EFFECTS} effects at a time, got {}",
+                    self.effects.len()
+                ),
+                AugmentError::BadPrior => format!("`effects`: bad prior σ for `{name}`"),
+            })?;
         }
         Ok(aug)
     }

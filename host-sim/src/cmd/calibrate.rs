@@ -6,8 +6,8 @@ use crate::calib::flexure_id::identify_flexure;
 use crate::calib::run::{self as runner, Precision};
 use crate::calib::score::score;
 use crate::cmd::common::ModelArgs;
-use crate::learn::increments::{increment_noise, IncrementNoise};
-use crate::learn::{default_start, learn, model_toml, LearnOptions, Learned};
+use crate::learn::increments::IncrementNoise;
+use crate::learn::{learn, model_toml, start_from_nothing, LearnOptions, Learned};
 use crate::recording::read_recording;
 use crate::report::{plots, summary};
 use std::path::{Path, PathBuf};
@@ -164,17 +164,15 @@ pub fn prepare_config(
             learned: None,
         });
     }
-    let inc = increment_noise(rec, 200_000)
+    let (nothing, inc) = start_from_nothing(rec);
+    let inc = inc
         .map_err(|e| eprintln!("flexcal: IMU noise not read from the increments: {e}"))
         .ok();
     let (mut start, origin) = match declared {
         Some((c, o)) => (c, format!("{o} (tune = true)")),
         None => {
             eprintln!("flexcal: no configuration given and none beside the recording");
-            (
-                default_start(rec, inc.as_ref()),
-                "built-in default".to_string(),
-            )
+            (nothing, "built-in default".to_string())
         }
     };
     model.apply(&mut start)?;

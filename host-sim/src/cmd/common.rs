@@ -2,15 +2,24 @@
 //! calibration configuration.
 
 use crate::calib::config::CalibConfig;
+use crate::sim::blind::{self, BlindEffect};
 use crate::sim::Scenario;
 
 /// Which scenario to simulate, for how long, with which seed.
 #[derive(clap::Args)]
 pub struct ScenarioArgs {
     /// Built-in scenario (paper, moored, matched) or a scenario TOML file.
+    #[arg(long, required_unless_present = "blind", conflicts_with = "blind")]
+    pub scenario: Option<String>,
+    /// A blind scenario instead: drawn from the seed within stated ranges
+    /// (`docs/model-learning.md`), its model handed to nobody (each Monte Carlo run
+    /// draws its own).
     #[arg(long)]
-    pub scenario: String,
-    /// Override the scenario's duration (s).
+    pub blind: bool,
+    /// With `--blind`: the undeclared effect the draw carries.
+    #[arg(long, value_enum, requires = "blind")]
+    pub effect: Option<BlindEffect>,
+    /// Override the scenario's duration (s); a blind scenario lasts 600 s unless told.
     #[arg(long)]
     pub duration: Option<f64>,
     /// Random seed (the first seed of a Monte Carlo).
@@ -18,15 +27,27 @@ pub struct ScenarioArgs {
     pub seed: u64,
 }
 
+/// The duration of a blind scenario when none is given (s).
+pub const BLIND_DURATION_S: f64 = 600.0;
+
 impl ScenarioArgs {
-    /// The scenario, with the duration override applied and checked.
-    pub fn load(&self) -> Result<Scenario, String> {
-        let mut sc = Scenario::load(&self.scenario)?;
+    /// The scenario of `seed`: the named one (the same for every seed), or the blind
+    /// draw of that seed; the duration override applied and checked.
+    pub fn load_for_seed(&self, seed: u64) -> Result<Scenario, String> {
+        let mut sc = match &self.scenario {
+            Some(name) if !self.blind => Scenario::load(name)?,
+            _ => blind::draw(seed, self.duration.unwrap_or(BLIND_DURATION_S), self.effect),
+        };
         if let Some(d) = self.duration {
             sc.duration_s = d;
             sc.validate()?;
         }
         Ok(sc)
+    }
+
+    /// The scenario of the first seed (see [`Self::load_for_seed`]).
+    pub fn load(&self) -> Result<Scenario, String> {
+        self.load_for_seed(self.seed)
     }
 }
 

@@ -5,6 +5,7 @@ pub mod common;
 pub mod diagnose;
 pub mod identify;
 pub mod montecarlo;
+pub mod montecarlo_blind;
 pub mod paper_figures;
 pub mod replay;
 pub mod simulate;

@@ -1,6 +1,11 @@
 //! `flexcal montecarlo`: many seeds of one scenario, calibrated with the model the
 //! scenario declares; RMS final errors against the filter's mean σ, and the mean
 //! NEES of the 9 calibrated states against its 95% χ² band.
+//!
+//! With `--blind` each seed draws its own scenario (`crate::sim::blind`) and the filter
+//! is told nothing: the model is learned from each recording (`crate::learn`), and the
+//! same recordings are calibrated with the built-in default for comparison
+//! (`super::montecarlo_blind`).
 
 use crate::calib::config::CalibConfig;
 use crate::calib::run::{run as calibrate, Precision};
@@ -79,7 +84,18 @@ pub fn one_run(
             return Err(format!("seed {seed}: {source}"));
         }
     }
-    let res = calibrate(&rec, &cfg, precision)?;
+    Ok(score_run(&rec, &cfg, seed, precision)?.0)
+}
+
+/// Calibrates a simulated recording with `cfg` and scores it against its truth; the
+/// run's result comes back too, for its innovations.
+pub fn score_run(
+    rec: &crate::recording::Recording,
+    cfg: &CalibConfig,
+    seed: u64,
+    precision: Precision,
+) -> Result<(RunResult, crate::calib::run::CalibResult), String> {
+    let res = calibrate(rec, cfg, precision)?;
     let truth = rec.truth.as_ref().ok_or("simulation wrote no truth")?;
     let s = score(&res, truth).ok_or("no estimates to score")?;
     let last = res.last();
@@ -91,13 +107,17 @@ pub fn one_run(
     sigma[0..3].copy_from_slice(&last.gyro_bias_sigma);
     sigma[3..6].copy_from_slice(&last.accel_bias_sigma);
     sigma[6..9].copy_from_slice(&last.misalignment_sigma);
-    Ok(RunResult {
-        seed,
-        error,
-        sigma,
-        nees: s.nees_mean,
-        nis: res.nis_mean(),
-    })
+    let nis = res.nis_mean();
+    Ok((
+        RunResult {
+            seed,
+            error,
+            sigma,
+            nees: s.nees_mean,
+            nis,
+        },
+        res,
+    ))
 }
 
 /// Aggregates runs.
@@ -122,13 +142,14 @@ pub fn aggregate(runs: &[RunResult]) -> Aggregate {
     }
 }
 
-const NAMES: [&str; 9] = [
+/// The calibrated states' names, in the order of [`RunResult::error`].
+pub const NAMES: [&str; 9] = [
     "bgx", "bgy", "bgz", "bax", "bay", "baz", "mux", "muy", "muz",
 ];
 
 /// RMS error over mean σ for each calibrated state (1: the filter's σ is right;
 /// the bound is 1.3), one point per state in the order of `NAMES`.
-fn ratio_figure(scenario: &str, agg: &Aggregate) -> Figure {
+pub fn ratio_figure(scenario: &str, agg: &Aggregate) -> Figure {
     let x: Vec<f64> = (0..NAMES.len()).map(|i| i as f64).collect();
     let ratio: Vec<f64> = agg
         .rms
@@ -160,6 +181,12 @@ fn ratio_figure(scenario: &str, agg: &Aggregate) -> Figure {
 
 /// Runs `flexcal montecarlo`.
 pub fn run(a: &Args) -> Result<(), String> {
+    if a.runs == 0 {
+        return Err("`--runs` must be at least 1".into());
+    }
+    if a.scenario.blind {
+        return super::montecarlo_blind::run(a);
+    }
     let sc = a.scenario.load()?;
     let mut cfg = CalibConfig::declared_for(&sc, 1.0 / sc.master.rate_hz);
     a.model.apply(&mut cfg)?;

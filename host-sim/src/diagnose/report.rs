@@ -31,7 +31,11 @@ pub fn effect_truth(effect: Effect, truth: &Truth) -> Option<Vec<f64>> {
         Effect::GyroGSensitivity => &[
             "gs11", "gs12", "gs13", "gs21", "gs22", "gs23", "gs31", "gs32", "gs33",
         ],
-        Effect::LeverArmCoupling => return None,
+        // No constant truth: the bending error has no column, the master's smooth
+        // errors vary in time.
+        Effect::LeverArmCoupling | Effect::MasterAttitudeError | Effect::MasterVelocityError => {
+            return None
+        }
     };
     names
         .iter()

@@ -11,6 +11,7 @@ pub mod flexure;
 pub mod increments;
 pub mod params;
 pub mod search;
+pub mod truth;
 
 use crate::calib::config::CalibConfig;
 use crate::diagnose::evaluate::{holdout, Holdout};
@@ -18,6 +19,12 @@ use crate::recording::Recording;
 use increments::IncrementNoise;
 use params::{ModelParams, Param};
 use search::{LearnedValue, Search};
+
+/// The size the search of a master's smooth attitude error starts its ladder from
+/// (rad): the ladder tries 0.001–1× this (0.2″ to 3.4′).
+const MASTER_ATTITUDE_SCALE_RAD: f64 = 1e-3;
+/// The same for the velocity error (m/s): 0.1 mm/s to 0.1 m/s.
+const MASTER_VELOCITY_SCALE_MPS: f64 = 0.1;
 
 /// How the learner works.
 #[derive(Clone, Copy, Debug, serde::Serialize)]
@@ -104,6 +111,11 @@ pub fn default_start(rec: &Recording, inc: Option<&IncrementNoise>) -> CalibConf
     if rec.meta.master_rate_hz > 0.0 {
         c.filter_period_s = 1.0 / rec.meta.master_rate_hz;
     }
+    // The built-in flexure's AR(2) belongs to its own period: re-derived at this one.
+    let [a1, a2, sigma] = params::DEFAULT_FLEXURE.ar(c.filter_period_s);
+    c.flexure_ar = [a1, a2];
+    c.flexure_sigma_rad = sigma;
+    c.flexure_axes = None;
     if !rec.master_has_rate() {
         c.matching.retain(|m| m != "angular_rate");
     }
@@ -115,6 +127,13 @@ pub fn default_start(rec: &Recording, inc: Option<&IncrementNoise>) -> CalibConf
         c.accel_vrw_mps_rs = c.accel_vrw_mps_rs.min(inc.accel_floor()).clamp(lo, hi);
     }
     c
+}
+
+/// The search's start and the slave's increment noise when nothing is declared (what
+/// `calibrate`, `diagnose` and `montecarlo --blind` learn from).
+pub fn start_from_nothing(rec: &Recording) -> (CalibConfig, Result<IncrementNoise, String>) {
+    let inc = increments::increment_noise(rec, 200_000);
+    (default_start(rec, inc.as_ref().ok()), inc)
 }
 
 /// Learns the model of `rec` starting from `start` (see the module doc).
@@ -146,6 +165,15 @@ pub fn learn(
         }
         if m.angular_rate {
             s.line(&[Param::RateNoise], h);
+        }
+        // The master's smooth errors, jointly with the white noise they would otherwise
+        // be taken for (a smooth master drives the white noise to its floor and drags
+        // the misalignment and biases); absent unless the likelihood wants them.
+        if m.attitude {
+            s.vanishing(Param::MasterAttitudeError, MASTER_ATTITUDE_SCALE_RAD, h);
+        }
+        if m.velocity {
+            s.vanishing(Param::MasterVelocityError, MASTER_VELOCITY_SCALE_MPS, h);
         }
         s.identify_flexure();
         // The sensor's grade (with the flexure known: a wrong flexure model makes any

@@ -4,6 +4,7 @@
 //! the filter period.
 
 use crate::calib::config::CalibConfig;
+use flexcal_core::augment::Effect;
 use flexcal_core::flexure::ArAxis;
 
 /// A continuous flexure model of one axis: `θ̈ + 2ζω θ̇ + ω² θ = w`, stationary σ of θ.
@@ -82,6 +83,11 @@ pub enum Param {
     InitialAccelBias,
     /// Initial σ of the mounting misalignment (rad).
     InitialMisalignment,
+    /// Stationary σ of the master's smooth attitude error (rad); zero: none (the
+    /// `master_attitude_error` block is carried only when it is not zero).
+    MasterAttitudeError,
+    /// Stationary σ of the master's smooth velocity error (m/s); zero: none.
+    MasterVelocityError,
     /// Flexure natural frequency of a slave axis (rad/s).
     FlexureOmega(usize),
     /// Flexure damping ratio of a slave axis.
@@ -107,6 +113,8 @@ impl Param {
             Param::InitialGyroBias => "initial_gyro_bias_radps".into(),
             Param::InitialAccelBias => "initial_accel_bias_mps2".into(),
             Param::InitialMisalignment => "initial_misalignment_rad".into(),
+            Param::MasterAttitudeError => "master_attitude_error_rad".into(),
+            Param::MasterVelocityError => "master_velocity_error_mps".into(),
             Param::FlexureOmega(k) => format!("flexure_omega_rad_s_{}", ax(k)),
             Param::FlexureDamping(k) => format!("flexure_damping_{}", ax(k)),
             Param::FlexureSigma(k) => format!("flexure_sigma_rad_{}", ax(k)),
@@ -118,7 +126,11 @@ impl Param {
     pub fn may_vanish(&self) -> bool {
         matches!(
             self,
-            Param::GyroBiasRw | Param::AccelBiasRw | Param::MisalignmentRw
+            Param::GyroBiasRw
+                | Param::AccelBiasRw
+                | Param::MisalignmentRw
+                | Param::MasterAttitudeError
+                | Param::MasterVelocityError
         )
     }
 
@@ -140,6 +152,8 @@ impl Param {
             Param::InitialGyroBias => (5e-8, 0.2),
             Param::InitialAccelBias => (1e-5, 10.0),
             Param::InitialMisalignment => (5e-6, 0.8),
+            Param::MasterAttitudeError => (0.0, 1e-2),
+            Param::MasterVelocityError => (0.0, 1.0),
             Param::FlexureOmega(_) => (0.05, 30.0),
             Param::FlexureDamping(_) => (0.02, 0.95),
             Param::FlexureSigma(_) => (1e-6, 0.05),
@@ -207,9 +221,35 @@ impl ModelParams {
             Param::InitialGyroBias => c.initial_gyro_bias_radps,
             Param::InitialAccelBias => c.initial_accel_bias_mps2,
             Param::InitialMisalignment => c.initial_misalignment_rad,
+            Param::MasterAttitudeError => {
+                self.carried(Effect::MasterAttitudeError, c.master_attitude_error_rad)
+            }
+            Param::MasterVelocityError => {
+                self.carried(Effect::MasterVelocityError, c.master_velocity_error_mps)
+            }
             Param::FlexureOmega(k) => fx(k).omega_rad_s,
             Param::FlexureDamping(k) => fx(k).damping,
             Param::FlexureSigma(k) => fx(k).sigma_rad,
+        }
+    }
+
+    /// `value` when the configuration carries `effect`'s block, else zero.
+    fn carried(&self, effect: Effect, value: f64) -> f64 {
+        if self.base.effects.iter().any(|e| e == effect.name()) {
+            value
+        } else {
+            0.0
+        }
+    }
+
+    /// Adds `effect` to the configuration's effects, or removes it.
+    fn carry(&mut self, effect: Effect, on: bool) {
+        let effects = &mut self.base.effects;
+        let present = effects.iter().any(|e| e == effect.name());
+        if on && !present {
+            effects.push(effect.name().to_string());
+        } else if !on && present {
+            effects.retain(|e| e != effect.name());
         }
     }
 
@@ -236,6 +276,14 @@ impl ModelParams {
             Param::InitialGyroBias => c.initial_gyro_bias_radps = v,
             Param::InitialAccelBias => c.initial_accel_bias_mps2 = v,
             Param::InitialMisalignment => c.initial_misalignment_rad = v,
+            Param::MasterAttitudeError => {
+                c.master_attitude_error_rad = v;
+                self.carry(Effect::MasterAttitudeError, v > 0.0);
+            }
+            Param::MasterVelocityError => {
+                c.master_velocity_error_mps = v;
+                self.carry(Effect::MasterVelocityError, v > 0.0);
+            }
             Param::FlexureOmega(k) => {
                 if let Some(f) = self.flexure.get_mut(k) {
                     f.omega_rad_s = v;

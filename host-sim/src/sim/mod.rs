@@ -11,6 +11,7 @@
 //! here when the scenario asks for them, and their values are written to `truth.csv`
 //! as constant columns, so a diagnosis can be scored against them.
 
+pub mod blind;
 pub mod flexure;
 pub mod motion;
 pub mod scenario;
@@ -23,7 +24,7 @@ use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
-pub use scenario::{Bending, FlexureSpec, Scenario, Undeclared, VelocityWave};
+pub use scenario::{Bending, FlexureSpec, Scenario, SmoothError, Undeclared, VelocityWave};
 use std::f64::consts::PI;
 
 /// Fine sub-steps per IMU interval for the truth integrals.
@@ -171,6 +172,44 @@ fn constant_truth(e: &ImuErrors, und: &Undeclared) -> Vec<(&'static str, f64)> {
         .collect()
 }
 
+/// The master's smooth error (`scenario::SmoothError`) as it evolves message by
+/// message, from a random stream of its own (the white noises' draws are the same
+/// with or without it).
+struct SmoothMasterError {
+    rng: ChaCha8Rng,
+    /// `e^{−T/τ}`.
+    decay: f64,
+    /// Stationary σ of the attitude (rad) and velocity (m/s) errors.
+    sigma: (f64, f64),
+    /// Current attitude error, navigation frame (rad), and velocity error, ENU (m/s).
+    state: (Vector3<f64>, Vector3<f64>),
+}
+
+impl SmoothMasterError {
+    fn new(e: &scenario::SmoothError, period_s: f64, seed: u64) -> Self {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5a5a_0f0f_3c3c_9696);
+        let sigma = ((e.attitude_arcsec / 3600.0).to_radians(), e.velocity_mps);
+        let state = (gauss3(&mut rng, sigma.0), gauss3(&mut rng, sigma.1));
+        Self {
+            rng,
+            decay: (-period_s / e.correlation_s).exp(),
+            sigma,
+            state,
+        }
+    }
+
+    /// The error of the next message: (attitude, velocity).
+    fn next(&mut self) -> (Vector3<f64>, Vector3<f64>) {
+        let now = self.state;
+        let k = (1.0 - self.decay * self.decay).sqrt();
+        self.state = (
+            now.0 * self.decay + gauss3(&mut self.rng, self.sigma.0 * k),
+            now.1 * self.decay + gauss3(&mut self.rng, self.sigma.1 * k),
+        );
+        now
+    }
+}
+
 fn gauss3(rng: &mut impl Rng, sigma: f64) -> Vector3<f64> {
     Vector3::from_fn(|_, _| sigma * rng.sample::<f64, _>(StandardNormal))
 }
@@ -228,6 +267,11 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
     };
     let (_, _, _, mut prev) = boundary(0, &pos_m);
     let tau = und.master_delay_s;
+    let mut smooth = sc
+        .master
+        .smooth_error
+        .as_ref()
+        .map(|e| SmoothMasterError::new(e, 1.0 / sc.master.rate_hz, seed));
     // The message stamped `t`, from the master's truth at `t − τ` (`pos_t`: at `t`).
     let mut emit_master = |t: f64,
                            pos_t: &Position<f64>,
@@ -239,9 +283,14 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
         let w_ie = earth::earth_rate_n(pos.lat_rad);
         let w_en = earth::transport_rate_n(&pos, &fx.v_m);
         let w_ib_bm = m.w_nb_bm + m.c_bm_n.transpose() * (w_ie + w_en);
-        let q = UnitQuaternion::from_matrix(&m.c_bm_n)
+        let mut q = UnitQuaternion::from_matrix(&m.c_bm_n)
             * quat_exp(&gauss3(rng, sc.master.attitude_noise_deg.to_radians()));
         let mut v = fx.v_m + gauss3(rng, sc.master.velocity_noise_mps);
+        if let Some(s) = smooth.as_mut() {
+            let (att_n, vel_n) = s.next();
+            q = quat_exp(&att_n) * q;
+            v += vel_n;
+        }
         if let Some(wave) = &und.master_velocity_wave {
             v += Vector3::from(wave.amplitude_mps) * (2.0 * PI * t / wave.period_s).sin();
         }

@@ -123,6 +123,17 @@ pub enum FlexureSpec {
         /// Damping ratio ζ.
         damping: f64,
     },
+    /// The same second-order Gauss-Markov model with its own natural frequency,
+    /// damping and size on each slave axis (x, y, z): a hull bends differently about
+    /// each axis.
+    GaussMarkovAxes {
+        /// Stationary σ of θ per axis (arcmin).
+        sigma_arcmin: [f64; 3],
+        /// Natural frequency ω per axis (rad/s).
+        omega_rad_s: [f64; 3],
+        /// Damping ratio ζ per axis.
+        damping: [f64; 3],
+    },
 }
 
 /// Slave IMU errors and rate. Biases and scale factors are per axis.
@@ -176,6 +187,25 @@ pub struct MasterSpec {
     pub attitude_noise_deg: f64,
     /// White noise on the angular rate (deg/h, per axis).
     pub rate_noise_deg_h: f64,
+    /// A slow, correlated error of the master's attitude and velocity (a real INS's
+    /// errors are smooth, not white), if any.
+    #[serde(default)]
+    pub smooth_error: Option<SmoothError>,
+}
+
+/// The master's smooth output error: a first-order Gauss-Markov process per axis,
+/// `x_{k+1} = e^{−T/τ} x_k + σ √(1 − e^{−2T/τ}) n_k` at the master period T, started
+/// stationary, added to the attitude (a small rotation, navigation frame) and to the
+/// velocity (ENU) of every message.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SmoothError {
+    /// Stationary σ of the attitude error per axis (arcsec).
+    pub attitude_arcsec: f64,
+    /// Stationary σ of the velocity error per axis (m/s).
+    pub velocity_mps: f64,
+    /// Correlation time τ (s).
+    pub correlation_s: f64,
 }
 
 /// Effects outside the slave IMU that the filter's 21-state model has no state for
@@ -257,6 +287,31 @@ impl Scenario {
                 "`slave_imu.rate_hz` ({}) must be an integer multiple of `master.rate_hz` ({})",
                 self.slave_imu.rate_hz, self.master.rate_hz
             ));
+        }
+        if let Some(e) = &self.master.smooth_error {
+            let ok = |v: f64| v.is_finite() && v >= 0.0;
+            if !(ok(e.attitude_arcsec) && ok(e.velocity_mps))
+                || !(e.correlation_s.is_finite() && e.correlation_s > 0.0)
+            {
+                return Err(format!(
+                    "`master.smooth_error` needs σ ≥ 0 and a positive correlation time, got {e:?}"
+                ));
+            }
+        }
+        if let FlexureSpec::GaussMarkovAxes {
+            sigma_arcmin,
+            omega_rad_s,
+            damping,
+        } = self.flexure
+        {
+            for k in 0..3 {
+                let (s, w, z) = (sigma_arcmin[k], omega_rad_s[k], damping[k]);
+                if !(s.is_finite() && s >= 0.0 && w.is_finite() && w > 0.0 && z > 0.0 && z < 1.0) {
+                    return Err(format!(
+                        "`flexure` axis {k}: needs σ ≥ 0, ω > 0 and 0 < ζ < 1, got σ {s}, ω {w}, ζ {z}"
+                    ));
+                }
+            }
         }
         if let FlexureSpec::Ar { period_s, .. } = self.flexure {
             let k = period_s * self.slave_imu.rate_hz;

@@ -1,0 +1,226 @@
+//! `flexcal montecarlo --blind`: every seed draws its own scenario
+//! (`crate::sim::blind`), and the filter is told nothing about it. Each recording is
+//! calibrated twice: with the model learned from it (`crate::learn`, started from the
+//! built-in default exactly as `calibrate` does with no configuration), and with the
+//! built-in default itself. Both are scored against the truth (NEES, RMS/σ, per-channel
+//! NIS in its band), and the learned quantities against the values drawn
+//! (`crate::learn::truth`).
+
+use super::montecarlo::{aggregate, ratio_figure, score_run, Aggregate, Args, RunResult, NAMES};
+use crate::calib::residuals::channel_residuals;
+use crate::cmd::TOOL_VERSION;
+use crate::learn::params::ModelParams;
+use crate::learn::truth::{median_by_kind, param_errors, ParamError};
+use crate::learn::{default_start, learn, start_from_nothing, LearnOptions};
+use crate::sim::{blind, simulate};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use rayon::prelude::*;
+use serde_json::{json, Value};
+
+/// One blind seed, calibrated with the learned model and with the built-in default.
+#[derive(Clone, Debug)]
+pub struct BlindRun {
+    /// Seed (of the draw and of the simulation).
+    pub seed: u64,
+    /// With the learned model.
+    pub learned: RunResult,
+    /// With the built-in default.
+    pub default: RunResult,
+    /// Per channel axis (`channel/axis`): whether its NIS mean is inside its 95% band,
+    /// with the learned model and with the default.
+    pub nis_in_band: Vec<(String, bool, bool)>,
+    /// The learned quantities against the draw.
+    pub params: Vec<ParamError>,
+    /// Whether the learned model passed its held-out check (else the start was kept).
+    pub adopted: bool,
+    /// Wall time of the learning (s).
+    pub learn_seconds: f64,
+}
+
+/// Runs one blind seed.
+pub fn blind_run(a: &Args, seed: u64) -> Result<BlindRun, String> {
+    let sc = a.scenario.load_for_seed(seed)?;
+    let rec = simulate(&sc, seed).recording;
+    let (mut start, inc) = start_from_nothing(&rec);
+    a.model.apply(&mut start)?;
+    let l = learn(
+        &rec,
+        &start,
+        "built-in default",
+        inc.ok(),
+        &LearnOptions::default(),
+    )
+    .map_err(|e| format!("seed {seed}: learning: {e}"))?;
+    let (learned, learned_res) = score_run(&rec, &l.config, seed, a.precision)?;
+    let mut built_in = default_start(&rec, None);
+    a.model.apply(&mut built_in)?;
+    let (default, default_res) = score_run(&rec, &built_in, seed, a.precision)?;
+    let with_default = channel_residuals(&default_res.innovations);
+    let nis_in_band = channel_residuals(&learned_res.innovations)
+        .into_iter()
+        .map(|c| {
+            let inside = |m: f64, b: [f64; 2]| m >= b[0] && m <= b[1];
+            let d = with_default
+                .iter()
+                .find(|d| d.channel == c.channel && d.axis == c.axis)
+                .is_some_and(|d| inside(d.nis_mean, d.nis_band));
+            (
+                format!("{}/{}", c.channel, c.axis),
+                inside(c.nis_mean, c.nis_band),
+                d,
+            )
+        })
+        .collect();
+    Ok(BlindRun {
+        seed,
+        learned,
+        default,
+        nis_in_band,
+        params: param_errors(&ModelParams::from_config(&l.learned_config), &sc),
+        adopted: l.adopted,
+        learn_seconds: l.seconds,
+    })
+}
+
+/// Per channel axis: the fraction of runs whose NIS is in its band (learned, default).
+pub fn nis_fractions(runs: &[BlindRun]) -> Vec<(String, f64, f64)> {
+    let mut names: Vec<String> = Vec::new();
+    for r in runs {
+        for (n, _, _) in &r.nis_in_band {
+            if !names.contains(n) {
+                names.push(n.clone());
+            }
+        }
+    }
+    names
+        .into_iter()
+        .map(|n| {
+            let of = |pick: fn(&(String, bool, bool)) -> bool| {
+                let v: Vec<bool> = runs
+                    .iter()
+                    .filter_map(|r| r.nis_in_band.iter().find(|c| c.0 == n).map(pick))
+                    .collect();
+                v.iter().filter(|b| **b).count() as f64 / v.len().max(1) as f64
+            };
+            let learned = of(|c| c.1);
+            let default = of(|c| c.2);
+            (n, learned, default)
+        })
+        .collect()
+}
+
+fn arm_json(agg: &Aggregate, runs: &[RunResult], nis: Vec<(String, f64)>) -> Value {
+    let states: Vec<_> = (0..9)
+        .map(|i| json!({ "state": NAMES[i], "rms_error": agg.rms[i], "mean_sigma": agg.mean_sigma[i], "ratio": agg.rms[i] / agg.mean_sigma[i] }))
+        .collect();
+    json!({
+        "states": states,
+        "nees": { "mean": agg.nees_mean, "band_95": agg.nees_band, "dof_per_run": 9,
+                  "inside": agg.nees_mean >= agg.nees_band[0] && agg.nees_mean <= agg.nees_band[1] },
+        "nis_mean": runs.iter().map(|r| r.nis).sum::<f64>() / runs.len().max(1) as f64,
+        "nis_in_band_fraction": nis.into_iter().map(|(c, f)| json!({"channel": c, "fraction": f})).collect::<Vec<_>>(),
+    })
+}
+
+/// Runs `flexcal montecarlo --blind`.
+pub fn run(a: &Args) -> Result<(), String> {
+    let bar = ProgressBar::new(a.runs as u64);
+    if std::env::var_os("CI").is_some() {
+        bar.set_draw_target(ProgressDrawTarget::hidden());
+    }
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{bar:40} {pos}/{len} blind runs, {elapsed} elapsed, ETA {eta}",
+        )
+        .map_err(|e| e.to_string())?,
+    );
+    let results: Result<Vec<BlindRun>, String> = (0..a.runs as u64)
+        .into_par_iter()
+        .map(|i| {
+            let r = blind_run(a, a.scenario.seed + i);
+            bar.inc(1);
+            r
+        })
+        .collect();
+    bar.finish_and_clear();
+    let runs = results?;
+    let learned: Vec<RunResult> = runs.iter().map(|r| r.learned).collect();
+    let default: Vec<RunResult> = runs.iter().map(|r| r.default).collect();
+    let (agg_l, agg_d) = (aggregate(&learned), aggregate(&default));
+    let nis = nis_fractions(&runs);
+    let all_params: Vec<ParamError> = runs.iter().flat_map(|r| r.params.clone()).collect();
+    let medians = median_by_kind(&all_params);
+    let duration = a
+        .scenario
+        .duration
+        .unwrap_or(crate::cmd::common::BLIND_DURATION_S);
+    std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
+    let doc = json!({
+        "tool_version": TOOL_VERSION,
+        "scenario": "blind",
+        "effect": a.scenario.effect.map(blind::effect_name),
+        "ranges": blind::RANGES,
+        "runs": runs.len(),
+        "first_seed": a.scenario.seed,
+        "duration_s": duration,
+        "precision": a.precision,
+        "learned": arm_json(&agg_l, &learned, nis.iter().map(|(c, l, _)| (c.clone(), *l)).collect()),
+        "default": arm_json(&agg_d, &default, nis.iter().map(|(c, _, d)| (c.clone(), *d)).collect()),
+        "learned_adopted_runs": runs.iter().filter(|r| r.adopted).count(),
+        "learn_seconds_mean": runs.iter().map(|r| r.learn_seconds).sum::<f64>() / runs.len().max(1) as f64,
+        "parameters": medians.iter().map(|(k, m, n)| json!({"quantity": k, "median_abs_relative_error": m, "count": n})).collect::<Vec<_>>(),
+        "per_run": runs.iter().map(|r| json!({
+            "seed": r.seed, "adopted": r.adopted,
+            "learned": {"nees": r.learned.nees, "nis_mean": r.learned.nis, "error": r.learned.error, "sigma": r.learned.sigma},
+            "default": {"nees": r.default.nees, "nis_mean": r.default.nis, "error": r.default.error, "sigma": r.default.sigma},
+            "parameters": r.params,
+        })).collect::<Vec<_>>(),
+    });
+    let path = a.out.join("montecarlo.json");
+    std::fs::write(
+        &path,
+        serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())? + "\n",
+    )
+    .map_err(|e| format!("{}: {e}", path.display()))?;
+    ratio_figure("blind, learned model", &agg_l)
+        .write(&a.out.join("rms_over_sigma_learned.svg"))
+        .map_err(|e| e.to_string())?;
+    ratio_figure("blind, built-in default", &agg_d)
+        .write(&a.out.join("rms_over_sigma_default.svg"))
+        .map_err(|e| e.to_string())?;
+    println!(
+        "Blind Monte Carlo: {} runs of {duration} s ({:?}), each scenario drawn from its seed; the filter told nothing",
+        runs.len(),
+        a.precision
+    );
+    println!(
+        "  learned model adopted (held-out check) in {} of {} runs; learning took {:.1} s per run on average",
+        runs.iter().filter(|r| r.adopted).count(),
+        runs.len(),
+        runs.iter().map(|r| r.learn_seconds).sum::<f64>() / runs.len() as f64
+    );
+    println!("  state   RMS/σ learned   RMS/σ built-in default");
+    for i in 0..9 {
+        println!(
+            "  {:5}   {:8.3}        {:8.3}",
+            NAMES[i],
+            agg_l.rms[i] / agg_l.mean_sigma[i],
+            agg_d.rms[i] / agg_d.mean_sigma[i]
+        );
+    }
+    for (name, agg) in [("learned", &agg_l), ("built-in default", &agg_d)] {
+        println!(
+            "  mean NEES, {name}: {:.3} (95% band [{:.3}, {:.3}])",
+            agg.nees_mean, agg.nees_band[0], agg.nees_band[1]
+        );
+    }
+    println!("  channel          NIS in band: learned   built-in default");
+    for (c, l, d) in &nis {
+        println!("  {c:16} {:>20.0}%   {:>10.0}%", 100.0 * l, 100.0 * d);
+    }
+    println!("  learned vs drawn: median |relative error|");
+    for (k, m, n) in &medians {
+        println!("  {k:32} {:6.1}%  ({n} values)", 100.0 * m);
+    }
+    Ok(())
+}

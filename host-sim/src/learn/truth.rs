@@ -1,0 +1,186 @@
+//! Scoring a learned model against the scenario a blind simulation drew: which learned
+//! quantities have a true value in the draw, and how far the learner landed from it.
+//!
+//! A quantity has a truth only where the draw has a white-noise equivalent: the slave's
+//! angle and velocity random walks always; the master's velocity, attitude and rate
+//! noise only when the draw made them white and non-zero (a noiseless master has none,
+//! and the learner stops at its floor); a smooth master's stationary σ of attitude and
+//! velocity error when the draw made it smooth (its correlation time is the model's
+//! fixed one, not learned); the
+//! flexure's natural frequency, damping and size per axis for a Gauss-Markov flexure.
+
+use super::params::{ModelParams, Param};
+use crate::sim::{FlexureSpec, Scenario, DEG_PER_H};
+
+/// One learned quantity against the value drawn.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct ParamError {
+    /// The quantity.
+    pub param: Param,
+    /// Its value in the draw (the learner's unit).
+    pub truth: f64,
+    /// The learned value.
+    pub learned: f64,
+    /// `learned / truth − 1`.
+    pub relative_error: f64,
+}
+
+/// The quantities the draw gives a true value for, in the learner's units.
+pub fn drawn_values(sc: &Scenario) -> Vec<(Param, f64)> {
+    let mut v = vec![
+        (
+            Param::GyroArw,
+            sc.slave_imu.gyro_arw_deg_rh.to_radians() / 60.0,
+        ),
+        (Param::AccelVrw, sc.slave_imu.accel_vrw_mps_rh / 60.0),
+    ];
+    let m = &sc.master;
+    if let Some(e) = &m.smooth_error {
+        v.push((
+            Param::MasterAttitudeError,
+            (e.attitude_arcsec / 3600.0).to_radians(),
+        ));
+        v.push((Param::MasterVelocityError, e.velocity_mps));
+    } else {
+        for (p, value) in [
+            (Param::VelocityNoise, m.velocity_noise_mps),
+            (Param::AttitudeNoise, m.attitude_noise_deg.to_radians()),
+            (Param::RateNoise, m.rate_noise_deg_h * DEG_PER_H),
+        ] {
+            if value > 0.0 && (p != Param::RateNoise || m.gives_rate) {
+                v.push((p, value));
+            }
+        }
+    }
+    let axes = match sc.flexure {
+        FlexureSpec::GaussMarkov {
+            sigma_arcmin,
+            omega_rad_s,
+            damping,
+        } => Some(([sigma_arcmin; 3], [omega_rad_s; 3], [damping; 3])),
+        FlexureSpec::GaussMarkovAxes {
+            sigma_arcmin,
+            omega_rad_s,
+            damping,
+        } => Some((sigma_arcmin, omega_rad_s, damping)),
+        FlexureSpec::None | FlexureSpec::Ar { .. } => None,
+    };
+    if let Some((sigma, omega, zeta)) = axes {
+        for k in 0..3 {
+            v.push((Param::FlexureOmega(k), omega[k]));
+            v.push((Param::FlexureDamping(k), zeta[k]));
+            v.push((Param::FlexureSigma(k), (sigma[k] / 60.0).to_radians()));
+        }
+    }
+    v
+}
+
+/// The learned model against the draw, quantity by quantity.
+pub fn param_errors(learned: &ModelParams, sc: &Scenario) -> Vec<ParamError> {
+    drawn_values(sc)
+        .into_iter()
+        .map(|(param, truth)| {
+            let l = learned.get(param);
+            ParamError {
+                param,
+                truth,
+                learned: l,
+                relative_error: l / truth - 1.0,
+            }
+        })
+        .collect()
+}
+
+/// The kind of a quantity in the acceptance table (per-axis flexure quantities pooled).
+pub fn kind(p: Param) -> &'static str {
+    match p {
+        Param::GyroArw => "gyro angle random walk",
+        Param::AccelVrw => "accel velocity random walk",
+        Param::VelocityNoise => "master velocity noise (white)",
+        Param::AttitudeNoise => "master attitude noise (white)",
+        Param::RateNoise => "master rate noise (white)",
+        Param::MasterAttitudeError => "master attitude error (smooth)",
+        Param::MasterVelocityError => "master velocity error (smooth)",
+        Param::FlexureOmega(_) => "flexure natural frequency",
+        Param::FlexureDamping(_) => "flexure damping",
+        Param::FlexureSigma(_) => "flexure sigma",
+        Param::GyroBiasRw
+        | Param::AccelBiasRw
+        | Param::MisalignmentRw
+        | Param::InitialGyroBias
+        | Param::InitialAccelBias
+        | Param::InitialMisalignment => "other",
+    }
+}
+
+/// Median of |relative error| per kind over many runs, with the count, in the order of
+/// first appearance.
+pub fn median_by_kind(errors: &[ParamError]) -> Vec<(&'static str, f64, usize)> {
+    let mut kinds: Vec<&'static str> = Vec::new();
+    for e in errors {
+        if !kinds.contains(&kind(e.param)) {
+            kinds.push(kind(e.param));
+        }
+    }
+    kinds
+        .into_iter()
+        .map(|k| {
+            let mut v: Vec<f64> = errors
+                .iter()
+                .filter(|e| kind(e.param) == k)
+                .map(|e| e.relative_error.abs())
+                .collect();
+            v.sort_by(f64::total_cmp);
+            let n = v.len();
+            let median = match n {
+                0 => f64::NAN,
+                _ if n % 2 == 1 => v[n / 2],
+                _ => (v[n / 2 - 1] + v[n / 2]) / 2.0,
+            };
+            (k, median, n)
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calib::config::CalibConfig;
+    use crate::sim::blind;
+
+    #[test]
+    fn a_model_declared_from_the_draw_scores_zero_error() {
+        for seed in 0..20 {
+            let sc = blind::draw(seed, 60.0, None);
+            let cfg = CalibConfig::declared_for(&sc, 1.0 / sc.master.rate_hz);
+            let m = ModelParams::from_config(&cfg);
+            for e in param_errors(&m, &sc) {
+                assert!(
+                    e.relative_error.abs() < 1e-9,
+                    "seed {seed}: {:?} {} vs {}",
+                    e.param,
+                    e.learned,
+                    e.truth
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn medians_pool_the_axes() {
+        let e = |param, relative_error| ParamError {
+            param,
+            truth: 1.0,
+            learned: 1.0 + relative_error,
+            relative_error,
+        };
+        let m = median_by_kind(&[
+            e(Param::FlexureOmega(0), 0.1),
+            e(Param::FlexureOmega(1), -0.3),
+            e(Param::FlexureOmega(2), 0.2),
+            e(Param::GyroArw, 0.05),
+        ]);
+        assert_eq!(m[0], ("flexure natural frequency", 0.2, 3));
+        assert_eq!(m[1], ("gyro angle random walk", 0.05, 1));
+    }
+}
