@@ -4,8 +4,9 @@
 //!
 //! Every block but the master's errors is a constant (no process noise). The master's
 //! smooth output errors (`master_attitude_error`, `master_velocity_error`) are
-//! first-order Gauss-Markov processes with the correlation time
-//! [`MASTER_ERROR_CORRELATION_S`] and the block's prior σ as their stationary σ: a real
+//! first-order Gauss-Markov processes with one correlation time for both (the layout's
+//! [`Augmentation::master_error_correlation_s`], by default
+//! [`MASTER_ERROR_CORRELATION_S`]) and the block's prior σ as their stationary σ: a real
 //! master's errors are slow, not white, and a constant misalignment can only be told
 //! from them by their time behaviour. All but the delay stay in the filter's
 //! state, not fed back into the nominal solution, so their estimate and σ are read from
@@ -37,10 +38,9 @@ use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 /// Most effects one layout carries at a time.
 pub const MAX_EFFECTS: usize = 4;
 
-/// Correlation time of the master's smooth output errors (s), fixed: the board's
-/// Config carries each block's σ, not a time constant. A value inside the range real
-/// master errors show (tens to hundreds of seconds); `docs/model-learning.md` measures
-/// what a different true correlation time costs.
+/// Default correlation time of the master's smooth output errors (s): inside the range
+/// real master errors show (tens to hundreds of seconds). The model learner sets the
+/// layout's own from the data.
 pub const MASTER_ERROR_CORRELATION_S: f64 = 60.0;
 
 /// A candidate effect: its name is the vocabulary of `diagnosis.json`.
@@ -224,6 +224,9 @@ pub enum AugmentError {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Augmentation<T> {
     blocks: [Option<Block<T>>; MAX_EFFECTS],
+    /// Correlation time of the master's Gauss-Markov error blocks (s); `None`: the
+    /// default [`MASTER_ERROR_CORRELATION_S`].
+    master_tau_s: Option<T>,
 }
 
 impl<T: Real> Default for Augmentation<T> {
@@ -237,7 +240,23 @@ impl<T: Real> Augmentation<T> {
     pub const fn none() -> Self {
         Self {
             blocks: [None; MAX_EFFECTS],
+            master_tau_s: None,
         }
+    }
+
+    /// This layout with the master's errors' correlation time `tau_s` (s).
+    pub fn with_master_error_correlation(mut self, tau_s: T) -> Result<Self, AugmentError> {
+        if !(tau_s > T::zero() && tau_s.is_finite()) {
+            return Err(AugmentError::BadPrior);
+        }
+        self.master_tau_s = Some(tau_s);
+        Ok(self)
+    }
+
+    /// Correlation time of the master's Gauss-Markov error blocks (s).
+    pub fn master_error_correlation_s(&self) -> T {
+        self.master_tau_s
+            .unwrap_or_else(|| T::of(MASTER_ERROR_CORRELATION_S))
     }
 
     /// This layout with `effect` appended, its states starting after the last block's.
@@ -349,7 +368,7 @@ pub fn add_dynamics<T: Real, const S: usize>(
             }
             Effect::GyroGSensitivity => add_block(f, psi_row, o, &row_major_columns(f_b)),
             Effect::MasterAttitudeError | Effect::MasterVelocityError => {
-                let decay = -Matrix3::identity() / T::of(MASTER_ERROR_CORRELATION_S);
+                let decay = -Matrix3::identity() / aug.master_error_correlation_s();
                 add_block(f, o, o, &decay)
             }
             Effect::TimeDelay | Effect::LeverArmError | Effect::LeverArmCoupling => {}
@@ -365,7 +384,7 @@ pub fn add_process_noise<T: Real, const S: usize>(
     t: T,
 ) {
     for b in aug.blocks().filter(|b| b.effect.is_gauss_markov()) {
-        let decay = (-(t + t) / T::of(MASTER_ERROR_CORRELATION_S)).exp();
+        let decay = (-(t + t) / aug.master_error_correlation_s()).exp();
         let v = b.prior_sigma * b.prior_sigma * (T::one() - decay);
         for k in 0..b.effect.states() {
             if let Some(e) = q.get_mut((b.offset + k, b.offset + k)) {
@@ -561,11 +580,14 @@ mod master_error_tests {
     fn gauss_markov_blocks_keep_their_stationary_sigma() {
         let a = Augmentation::<f64>::none()
             .with(Effect::MasterVelocityError, 0.03)
+            .unwrap()
+            .with_master_error_correlation(35.0)
             .unwrap();
+        assert_eq!(a.master_error_correlation_s(), 35.0);
         let t = 0.1;
         let mut q = SMatrix::<f64, 24, 24>::zeros();
         add_process_noise(&mut q, &a, t);
-        let phi = (-t / MASTER_ERROR_CORRELATION_S).exp();
+        let phi = (-t / a.master_error_correlation_s()).exp();
         // Stationary: σ² = φ² σ² + q.
         let stationary = q[(N, N)] / (1.0 - phi * phi);
         assert!((stationary.sqrt() / 0.03 - 1.0).abs() < 1e-12);

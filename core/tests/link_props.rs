@@ -164,7 +164,12 @@ fn positive_f64() -> impl Strategy<Value = f64> {
 
 /// A layout: distinct effects in any order, `min..=MAX_EFFECTS` of them.
 fn layout(min: usize) -> impl Strategy<Value = Vec<Effect>> {
-    prop::sample::subsequence(Effect::ALL.to_vec(), min..=MAX_EFFECTS).prop_shuffle()
+    let all: Vec<Effect> = Effect::ALL
+        .iter()
+        .chain(&Effect::MASTER_ERRORS)
+        .copied()
+        .collect();
+    prop::sample::subsequence(all, min..=MAX_EFFECTS).prop_shuffle()
 }
 
 fn config() -> impl Strategy<Value = ConfigMsg> {
@@ -191,6 +196,7 @@ fn config() -> impl Strategy<Value = ConfigMsg> {
             layout(0),
             prop::collection::vec(positive_f32(), MAX_EFFECTS),
             -0.25f32..0.25,
+            positive_f32(),
         ),
     )
         .prop_map(
@@ -199,7 +205,7 @@ fn config() -> impl Strategy<Value = ConfigMsg> {
                 (lever_arm_m, flexure),
                 (process_noise, measurement_noise, initial_sigma, initial_misalignment_rad),
                 (gate_sigma, variance_floor, estimates_every, status_every),
-                (effects, priors, initial_delay_s),
+                (effects, priors, initial_delay_s, master_error_correlation_s),
             )| {
                 let mut slots = [None; MAX_EFFECTS];
                 for ((slot, effect), prior_sigma) in slots.iter_mut().zip(effects).zip(priors) {
@@ -235,6 +241,7 @@ fn config() -> impl Strategy<Value = ConfigMsg> {
                     status_every,
                     effects: slots,
                     initial_delay_s,
+                    master_error_correlation_s,
                 }
             },
         )
@@ -570,7 +577,7 @@ proptest! {
     #[test]
     fn config_augmentation_bytes(m in config(), aug in augmentation_bytes(), seq in any::<u16>()) {
         let mut payload = payload_of(&Message::Config(m));
-        prop_assert_eq!(payload.len(), 175);
+        prop_assert_eq!(payload.len(), 179);
         payload[150..171].copy_from_slice(&aug);
         let frame = raw_frame(0x03, seq, &payload);
         let mut d = Decoder::new();

@@ -36,7 +36,7 @@ pub const ESTIMATES_LEN: usize = 106;
 /// Payload length of [`StatusMsg`].
 pub const STATUS_LEN: usize = 128;
 /// Payload length of [`ConfigMsg`].
-pub const CONFIG_LEN: usize = 175;
+pub const CONFIG_LEN: usize = 179;
 /// Payload length of [`EndMsg`].
 pub const END_LEN: usize = 8;
 /// Payload length of [`EffectsMsg`].
@@ -378,6 +378,9 @@ pub struct ConfigMsg {
     /// Starting value of the master delay (s, |τ| ≤ `MAX_DELAY_S`) when the layout
     /// carries `time_delay` ([`EngineConfig::initial_delay_s`]).
     pub initial_delay_s: f32,
+    /// Correlation time of the master's Gauss-Markov error blocks (s, > 0), used when
+    /// the layout carries `master_attitude_error` or `master_velocity_error`.
+    pub master_error_correlation_s: f32,
 }
 
 impl ConfigMsg {
@@ -431,6 +434,7 @@ impl ConfigMsg {
                 e
             },
             initial_delay_s: c.initial_delay_s as f32,
+            master_error_correlation_s: f(c.augmentation.master_error_correlation_s()),
         }
     }
 
@@ -438,7 +442,9 @@ impl ConfigMsg {
     /// [`Message::validate`] (every decoded one); of an invalid one, the blocks the layout
     /// refuses are left out.
     pub fn augmentation<T: Real>(&self) -> Augmentation<T> {
-        let mut aug = Augmentation::none();
+        let tau = T::of(f64::from(self.master_error_correlation_s));
+        let none = Augmentation::none();
+        let mut aug = none.with_master_error_correlation(tau).unwrap_or(none);
         for e in self.effects.iter().map_while(|e| e.as_ref()) {
             if let Ok(a) = aug.with(e.effect, T::of(f64::from(e.prior_sigma))) {
                 aug = a;
@@ -518,7 +524,12 @@ impl ConfigMsg {
             .chain(self.initial_sigma.iter())
             .chain(self.initial_misalignment_rad.iter())
             .copied()
-            .chain([self.gate_sigma, self.variance_floor, self.initial_delay_s])
+            .chain([
+                self.gate_sigma,
+                self.variance_floor,
+                self.initial_delay_s,
+                self.master_error_correlation_s,
+            ])
     }
 }
 
@@ -764,6 +775,7 @@ impl Message {
                     && m.flexure_period_s > 0.0
                     && m.gate_sigma > 0.0
                     && m.variance_floor >= 0.0
+                    && m.master_error_correlation_s > 0.0
                     && f64::from(m.initial_delay_s).abs() <= crate::engine::MAX_DELAY_S)
                 {
                     return Err(PayloadError::BadValue);
@@ -883,6 +895,7 @@ impl Message {
                     }
                 }
                 w.f32(m.initial_delay_s)?;
+                w.f32(m.master_error_correlation_s)?;
             }
             Message::End(m) => {
                 w.f64(m.t)?;
@@ -1017,6 +1030,7 @@ impl Message {
                     }
                 }
                 let initial_delay_s = r.f32()?;
+                let master_error_correlation_s = r.f32()?;
                 Message::Config(ConfigMsg {
                     t,
                     filter_period_s,
@@ -1040,6 +1054,7 @@ impl Message {
                     status_every,
                     effects,
                     initial_delay_s,
+                    master_error_correlation_s,
                 })
             }
             MessageKind::End => Message::End(EndMsg { t: r.f64()? }),
@@ -1593,6 +1608,7 @@ mod tests {
                 None,
             ],
             initial_delay_s: 0.02,
+            master_error_correlation_s: 45.0,
         }
     }
 
@@ -1626,7 +1642,8 @@ mod tests {
         assert_eq!(f32_at(&b, 157), 1e-3);
         assert!(b[161..171].iter().all(|x| *x == 0), "unused slots are zero");
         assert_eq!(f32_at(&b, 171), 0.02, "initial delay");
-        assert_eq!(b[175], 0xAA, "nothing written past the payload");
+        assert_eq!(f32_at(&b, 175), 45.0, "master error correlation time");
+        assert_eq!(b[179], 0xAA, "nothing written past the payload");
         let back = Message::read_payload(MessageKind::Config, &b[..n]).unwrap();
         assert_eq!(back, Message::Config(m));
 

@@ -83,6 +83,8 @@ pub struct CalibConfig {
     /// Stationary σ of the master's smooth velocity error (m/s, per ENU axis) when
     /// `effects` has `master_velocity_error`.
     pub master_velocity_error_mps: f64,
+    /// Correlation time of the master's smooth errors (s), both blocks.
+    pub master_error_correlation_s: f64,
     /// Starting value of the master delay (s) when `effects` has `time_delay`: a
     /// previous estimate, so the delay's linearization holds from the start.
     pub initial_delay_s: f64,
@@ -130,6 +132,7 @@ impl CalibConfig {
             effects: Vec::new(),
             master_attitude_error_rad: Effect::MasterAttitudeError.default_prior_sigma(),
             master_velocity_error_mps: Effect::MasterVelocityError.default_prior_sigma(),
+            master_error_correlation_s: flexcal_core::augment::MASTER_ERROR_CORRELATION_S,
             initial_delay_s: 0.0,
             tune: false,
         }
@@ -254,7 +257,14 @@ impl CalibConfig {
     /// The layout of `effects`, each with its default prior σ (the master's smooth
     /// errors with their configured stationary σ).
     pub fn augmentation<T: Real>(&self) -> Result<Augmentation<T>, String> {
-        let mut aug = Augmentation::none();
+        let mut aug = Augmentation::none()
+            .with_master_error_correlation(T::of(self.master_error_correlation_s))
+            .map_err(|_| {
+                format!(
+                    "`master_error_correlation_s` must be a positive number of seconds, got {}",
+                    self.master_error_correlation_s
+                )
+            })?;
         for name in &self.effects {
             let effect = parse_effect(name).map_err(|e| format!("`effects`: {e}"))?;
             let prior = match effect {

@@ -26,6 +26,9 @@ const MASTER_ATTITUDE_SCALE_RAD: f64 = 1e-3;
 /// The same for the velocity error (m/s): 0.1 mm/s to 0.1 m/s.
 const MASTER_VELOCITY_SCALE_MPS: f64 = 0.1;
 
+/// Covariance-matching iterations of the channel noise per pass.
+const NOISE_ITERATIONS: usize = 4;
+
 /// How the learner works.
 #[derive(Clone, Copy, Debug, serde::Serialize)]
 pub struct LearnOptions {
@@ -157,15 +160,7 @@ pub fn learn(
     let per_window = 1.0 / span.sqrt();
     for sweep in 0..opts.sweeps.max(1) {
         let h = std::f64::consts::LN_2 / (1u32 << sweep.min(8)) as f64;
-        if m.velocity {
-            s.line(&[Param::VelocityNoise], h);
-        }
-        if m.attitude {
-            s.line(&[Param::AttitudeNoise], h);
-        }
-        if m.angular_rate {
-            s.line(&[Param::RateNoise], h);
-        }
+        s.match_noise(&win, NOISE_ITERATIONS);
         // The master's smooth errors, jointly with the white noise they would otherwise
         // be taken for (a smooth master drives the white noise to its floor and drags
         // the misalignment and biases); absent unless the likelihood wants them.
@@ -174,6 +169,12 @@ pub fn learn(
         }
         if m.velocity {
             s.vanishing(Param::MasterVelocityError, MASTER_VELOCITY_SCALE_MPS, h);
+        }
+        let smooth_master = [Param::MasterAttitudeError, Param::MasterVelocityError]
+            .iter()
+            .any(|&p| s.model.get(p) > 0.0);
+        if smooth_master {
+            s.line(&[Param::MasterErrorCorrelation], h);
         }
         s.identify_flexure();
         // The sensor's grade (with the flexure known: a wrong flexure model makes any
@@ -208,8 +209,10 @@ pub fn learn(
             h,
         );
     }
-    let learned_config = s.model.config();
     let neg2ll_learned = s.current.total;
+    // The noise matched once more on the whole recording the calibration will run on.
+    s.match_noise(rec, NOISE_ITERATIONS);
+    let learned_config = s.model.config();
     let (h_start, h_learned) = rayon::join(
         || holdout(rec, start, opts.holdout_fraction),
         || holdout(rec, &learned_config, opts.holdout_fraction),

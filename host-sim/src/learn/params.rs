@@ -88,6 +88,8 @@ pub enum Param {
     MasterAttitudeError,
     /// Stationary σ of the master's smooth velocity error (m/s); zero: none.
     MasterVelocityError,
+    /// Correlation time of the master's smooth errors (s).
+    MasterErrorCorrelation,
     /// Flexure natural frequency of a slave axis (rad/s).
     FlexureOmega(usize),
     /// Flexure damping ratio of a slave axis.
@@ -115,6 +117,7 @@ impl Param {
             Param::InitialMisalignment => "initial_misalignment_rad".into(),
             Param::MasterAttitudeError => "master_attitude_error_rad".into(),
             Param::MasterVelocityError => "master_velocity_error_mps".into(),
+            Param::MasterErrorCorrelation => "master_error_correlation_s".into(),
             Param::FlexureOmega(k) => format!("flexure_omega_rad_s_{}", ax(k)),
             Param::FlexureDamping(k) => format!("flexure_damping_{}", ax(k)),
             Param::FlexureSigma(k) => format!("flexure_sigma_rad_{}", ax(k)),
@@ -154,6 +157,7 @@ impl Param {
             Param::InitialMisalignment => (5e-6, 0.8),
             Param::MasterAttitudeError => (0.0, 1e-2),
             Param::MasterVelocityError => (0.0, 1.0),
+            Param::MasterErrorCorrelation => (5.0, 2000.0),
             Param::FlexureOmega(_) => (0.05, 30.0),
             Param::FlexureDamping(_) => (0.02, 0.95),
             Param::FlexureSigma(_) => (1e-6, 0.05),
@@ -227,6 +231,7 @@ impl ModelParams {
             Param::MasterVelocityError => {
                 self.carried(Effect::MasterVelocityError, c.master_velocity_error_mps)
             }
+            Param::MasterErrorCorrelation => c.master_error_correlation_s,
             Param::FlexureOmega(k) => fx(k).omega_rad_s,
             Param::FlexureDamping(k) => fx(k).damping,
             Param::FlexureSigma(k) => fx(k).sigma_rad,
@@ -284,6 +289,7 @@ impl ModelParams {
                 c.master_velocity_error_mps = v;
                 self.carry(Effect::MasterVelocityError, v > 0.0);
             }
+            Param::MasterErrorCorrelation => c.master_error_correlation_s = v,
             Param::FlexureOmega(k) => {
                 if let Some(f) = self.flexure.get_mut(k) {
                     f.omega_rad_s = v;

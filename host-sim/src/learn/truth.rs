@@ -5,8 +5,7 @@
 //! angle and velocity random walks always; the master's velocity, attitude and rate
 //! noise only when the draw made them white and non-zero (a noiseless master has none,
 //! and the learner stops at its floor); a smooth master's stationary σ of attitude and
-//! velocity error when the draw made it smooth (its correlation time is the model's
-//! fixed one, not learned); the
+//! velocity error and their correlation time when the draw made it smooth; the
 //! flexure's natural frequency, damping and size per axis for a Gauss-Markov flexure.
 
 use super::params::{ModelParams, Param};
@@ -41,6 +40,7 @@ pub fn drawn_values(sc: &Scenario) -> Vec<(Param, f64)> {
             (e.attitude_arcsec / 3600.0).to_radians(),
         ));
         v.push((Param::MasterVelocityError, e.velocity_mps));
+        v.push((Param::MasterErrorCorrelation, e.correlation_s));
     } else {
         for (p, value) in [
             (Param::VelocityNoise, m.velocity_noise_mps),
@@ -101,6 +101,7 @@ pub fn kind(p: Param) -> &'static str {
         Param::RateNoise => "master rate noise (white)",
         Param::MasterAttitudeError => "master attitude error (smooth)",
         Param::MasterVelocityError => "master velocity error (smooth)",
+        Param::MasterErrorCorrelation => "master error correlation time",
         Param::FlexureOmega(_) => "flexure natural frequency",
         Param::FlexureDamping(_) => "flexure damping",
         Param::FlexureSigma(_) => "flexure sigma",
