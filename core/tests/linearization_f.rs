@@ -254,3 +254,50 @@ fn g_sensitivity_columns_match_mechanization() {
         .unwrap();
     check::<30>(&aug, 2, 5e-3);
 }
+
+/// The master's smooth-error blocks decay as `e^{−t/τ}` over a filter period and touch
+/// no other state (they enter the measurements only).
+#[test]
+fn master_error_blocks_decay_with_their_correlation_time() {
+    let tau = 37.0;
+    let aug = Augmentation::none()
+        .with(Effect::MasterAttitudeError, 5e-5)
+        .unwrap()
+        .with(Effect::MasterVelocityError, 0.02)
+        .unwrap()
+        .with_master_error_correlation(tau)
+        .unwrap();
+    let c = case();
+    let means = IntervalMeans {
+        f_b: c.f_b,
+        w_ib_b: c.w_b,
+        c_b_n: dcm(&c.start.q_b_n),
+        v_n: c.start.v_n,
+        pos: c.start.pos,
+    };
+    let t = 0.1;
+    let flex = FlexureModel {
+        axes: [ArAxis {
+            a1: 0.0,
+            a2: 0.0,
+            sigma_rad: 0.0,
+        }; 3],
+        period_s: t,
+    };
+    let phi = model::transition::<f64, 27>(&means, &flex, &aug, t);
+    let want = (-t / tau).exp();
+    for i in model::N..27 {
+        for j in 0..27 {
+            let expected = if i == j { want } else { 0.0 };
+            // Φ is a Taylor series of the third order: (t/τ)⁴/24 ≈ 2e-12 here.
+            assert!(
+                (phi[(i, j)] - expected).abs() < 1e-10,
+                "Φ[{i}, {j}] = {:e}, want {expected:e}",
+                phi[(i, j)]
+            );
+        }
+        for r in 0..model::N {
+            assert_eq!(phi[(r, i)], 0.0, "Φ[{r}, {i}]");
+        }
+    }
+}

@@ -2,6 +2,12 @@
 //! complete model (false alarms), and on an effect outside the candidate list.
 //! The figures of `docs/diagnosis.md` come from the same runs at 300 s
 //! (`flexcal diagnose`, commands there); these tests use 120 s recordings.
+//!
+//! Why these hand the filter its model: they test the candidate search alone (the
+//! Wald and likelihood-ratio tests, the held-out and structure checks), which needs the
+//! declared noise and flexure right so that what is left is the effect; each test's name
+//! says `given_the_declared_model`. That the model itself can be learned from data that
+//! declares nothing is tested on blind draws (`learn_blind.rs`, `docs/model-learning.md`).
 
 use flexcal_core::augment::Effect;
 use flexcal_sim::calib::config::CalibConfig;
@@ -60,7 +66,7 @@ fn unexplained(d: &Diagnosis, rec: &Recording) -> Vec<(&'static str, usize, f64)
 }
 
 #[test]
-fn paper_scale_factors_are_found_and_the_residuals_become_consistent() {
+fn paper_scale_factors_are_found_and_the_residuals_become_consistent_given_the_declared_model() {
     let (rec, d) = run(&scenario("paper"), 1);
     assert_within_3_sigma(&d, &rec, Effect::GyroScaleFactor);
     assert_within_3_sigma(&d, &rec, Effect::AccelScaleFactor);
@@ -99,7 +105,7 @@ fn paper_scale_factors_are_found_and_the_residuals_become_consistent() {
 }
 
 #[test]
-fn master_delays_of_10_20_and_50_ms_are_found() {
+fn master_delays_of_10_20_and_50_ms_are_found_given_the_declared_model() {
     for tau in [0.01, 0.02, 0.05] {
         let mut sc = scenario("moored-delay-20ms.toml");
         sc.undeclared.master_delay_s = tau;
@@ -120,7 +126,7 @@ fn master_delays_of_10_20_and_50_ms_are_found() {
 }
 
 #[test]
-fn a_lever_arm_error_of_half_a_metre_is_found() {
+fn a_lever_arm_error_of_half_a_metre_is_found_given_the_declared_model() {
     let (rec, d) = run(&scenario("moored-lever-error.toml"), 3);
     assert_eq!(found(&d), ["lever_arm_error"]);
     assert_within_3_sigma(&d, &rec, Effect::LeverArmError);
@@ -135,7 +141,7 @@ fn a_lever_arm_error_of_half_a_metre_is_found() {
 /// biased by a few tenths of a millisecond (`docs/diagnosis.md`, Open, with the command);
 /// the delay's 0.5 ms resolution floor keeps that from being reported.
 #[test]
-fn the_complete_model_raises_at_most_one_false_alarm_in_20_seeds() {
+fn the_complete_model_raises_at_most_one_false_alarm_in_20_seeds_given_the_declared_model() {
     let mut sc = scenario("moored");
     sc.duration_s = 300.0;
     let mut alarms = Vec::new();
@@ -156,7 +162,7 @@ fn the_complete_model_raises_at_most_one_false_alarm_in_20_seeds() {
 }
 
 #[test]
-fn an_effect_outside_the_candidates_is_reported_as_unexplained() {
+fn an_effect_outside_the_candidates_is_reported_as_unexplained_given_the_declared_model() {
     // A 37 s oscillation of the master's north velocity: no candidate has that signature.
     let (rec, d) = run(&scenario("moored-wave.toml"), 4);
     assert!(d.found.is_empty(), "forced onto {:?}", found(&d));

@@ -78,7 +78,7 @@ fn learned_model_calibrates_blind_recordings_consistently() {
         if with_default > bound {
             default_over += 1;
         }
-        for e in param_errors(&ModelParams::from_config(&l.learned_config), &sc) {
+        for e in param_errors(&ModelParams::from_config(&l.learned_config), &l.values, &sc) {
             let tolerance = match e.param {
                 Param::GyroArw => 0.2,
                 Param::FlexureOmega(_) => 0.15,

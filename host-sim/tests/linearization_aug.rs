@@ -97,6 +97,7 @@ fn signature(fx: &Fixed, t: f64) -> Signature<f64> {
         w_dot_bs: exp_so3(&fx.mu).transpose() * (w_ib_at(t + h) - w_ib_at(t - h)) / (2.0 * h),
         w_ib_bs: s.w_ib_bs,
         f_bs: Vector3::zeros(),
+        c_bs_n: s.c_bs_n,
         theta: Vector3::zeros(),
         theta_rate: Vector3::zeros(),
     }
@@ -167,5 +168,52 @@ fn lever_arm_error_column_matches_a_longer_arm() {
     for channel in [Channel::Attitude, Channel::AngularRate] {
         let rows = columns(&aug, channel, &sig);
         assert!(rows.iter().all(|r| r.iter().all(|v| *v == 0.0)));
+    }
+}
+
+/// The master's smooth-error blocks against the matching residuals with the master's
+/// output perturbed as the blocks say: attitude `Exp(φ_m) C_bm^n`, velocity `v_m + δv_m`.
+#[test]
+fn master_error_columns_match_a_perturbed_master() {
+    let fx = fixed(Vector3::new(10.0, 4.0, 15.0));
+    let aug = Augmentation::none()
+        .with(Effect::MasterAttitudeError, 5e-5)
+        .unwrap()
+        .with(Effect::MasterVelocityError, 0.02)
+        .unwrap();
+    let oa = aug.offset(Effect::MasterAttitudeError).unwrap();
+    let ov = aug.offset(Effect::MasterVelocityError).unwrap();
+    for t in [1.3, 4.7] {
+        let sig = signature(&fx, t);
+        let s = slave(&fx, t);
+        let m = motion().attitude(t);
+        let (_, w_eb) = master_rates(&m, &fx.v_m);
+        let att = columns(&aug, Channel::Attitude, &sig);
+        let vel = columns(&aug, Channel::Velocity, &sig);
+        let h = 1e-6;
+        for k in 0..3 {
+            let mut d = Vector3::zeros();
+            d[k] = h;
+            let z = |phi: Vector3<f64>| {
+                model::attitude_residual(&fx.mu, &(exp_so3(&phi) * m.c_bm_n), &s.c_bs_n)
+            };
+            let fd = (z(d) - z(-d)) / (2.0 * h);
+            let col = Vector3::new(att[0][oa + k], att[1][oa + k], att[2][oa + k]);
+            assert!(
+                (fd - col).amax() <= 1e-3,
+                "φ_m[{k}] at t = {t}: model {col:?}, finite difference {fd:?}"
+            );
+            let zv = |dv: Vector3<f64>| {
+                model::velocity_residual(&s.v_n, &(fx.v_m + dv), &m.c_bm_n, &w_eb, &fx.r0)
+            };
+            let fd = (zv(d) - zv(-d)) / (2.0 * h);
+            let col = Vector3::new(vel[0][ov + k], vel[1][ov + k], vel[2][ov + k]);
+            assert!(
+                (fd - col).amax() <= 1e-9,
+                "δv_m[{k}] at t = {t}: model {col:?}, finite difference {fd:?}"
+            );
+            // Each block is seen by its own channel only.
+            assert_eq!((att[0][ov + k], vel[0][oa + k]), (0.0, 0.0));
+        }
     }
 }

@@ -188,6 +188,25 @@ impl CalibConfig {
         }
         // The master's rate noise; the engine adds the gyro's part from the ARW.
         let rate_noise = sc.master.rate_noise_deg_h * sim::DEG_PER_H;
+        // A smooth master error is declared as the Gauss-Markov blocks that model it.
+        let fallback = Self::declared_fallback();
+        let (mut effects, mut smooth_att, mut smooth_vel, mut smooth_tau) = (
+            Vec::new(),
+            fallback.master_attitude_error_rad,
+            fallback.master_velocity_error_mps,
+            fallback.master_error_correlation_s,
+        );
+        if let Some(e) = &sc.master.smooth_error {
+            smooth_tau = e.correlation_s;
+            if e.attitude_arcsec > 0.0 {
+                effects.push(Effect::MasterAttitudeError.name().to_string());
+                smooth_att = (e.attitude_arcsec / 3600.0).to_radians();
+            }
+            if e.velocity_mps > 0.0 {
+                effects.push(Effect::MasterVelocityError.name().to_string());
+                smooth_vel = e.velocity_mps;
+            }
+        }
         Self {
             filter_period_s: t,
             matching,
@@ -204,7 +223,11 @@ impl CalibConfig {
             velocity_noise_mps: sc.master.velocity_noise_mps,
             attitude_noise_rad: sc.master.attitude_noise_deg.to_radians(),
             rate_noise_radps: rate_noise,
-            ..Self::declared_fallback()
+            effects,
+            master_attitude_error_rad: smooth_att,
+            master_velocity_error_mps: smooth_vel,
+            master_error_correlation_s: smooth_tau,
+            ..fallback
         }
     }
 

@@ -10,7 +10,7 @@ use super::montecarlo::{aggregate, ratio_figure, score_run, Aggregate, Args, Run
 use crate::calib::residuals::channel_residuals;
 use crate::cmd::TOOL_VERSION;
 use crate::learn::params::ModelParams;
-use crate::learn::truth::{median_by_kind, param_errors, ParamError};
+use crate::learn::truth::{median_by_kind, param_errors, ParamError, IDENTIFIABLE_RELATIVE_SIGMA};
 use crate::learn::{default_start, learn, start_from_nothing, LearnOptions};
 use crate::sim::{blind, simulate};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -76,7 +76,7 @@ pub fn blind_run(a: &Args, seed: u64) -> Result<BlindRun, String> {
         learned,
         default,
         nis_in_band,
-        params: param_errors(&ModelParams::from_config(&l.learned_config), &sc),
+        params: param_errors(&ModelParams::from_config(&l.learned_config), &l.values, &sc),
         adopted: l.adopted,
         learn_seconds: l.seconds,
     })
@@ -168,7 +168,7 @@ pub fn run(a: &Args) -> Result<(), String> {
         "default": arm_json(&agg_d, &default, nis.iter().map(|(c, _, d)| (c.clone(), *d)).collect()),
         "learned_adopted_runs": runs.iter().filter(|r| r.adopted).count(),
         "learn_seconds_mean": runs.iter().map(|r| r.learn_seconds).sum::<f64>() / runs.len().max(1) as f64,
-        "parameters": medians.iter().map(|(k, m, n)| json!({"quantity": k, "median_abs_relative_error": m, "count": n})).collect::<Vec<_>>(),
+        "parameters": medians,
         "per_run": runs.iter().map(|r| json!({
             "seed": r.seed, "adopted": r.adopted,
             "learned": {"nees": r.learned.nees, "nis_mean": r.learned.nis, "error": r.learned.error, "sigma": r.learned.sigma},
@@ -218,9 +218,19 @@ pub fn run(a: &Args) -> Result<(), String> {
     for (c, l, d) in &nis {
         println!("  {c:16} {:>20.0}%   {:>10.0}%", 100.0 * l, 100.0 * d);
     }
-    println!("  learned vs drawn: median |relative error|");
-    for (k, m, n) in &medians {
-        println!("  {k:32} {:6.1}%  ({n} values)", 100.0 * m);
+    println!(
+        "  learned vs drawn: median |relative error| (all; where the learner's own σ is within {:.0}%)",
+        100.0 * IDENTIFIABLE_RELATIVE_SIGMA
+    );
+    for m in &medians {
+        println!(
+            "  {:32} {:6.1}% of {:3}   {:6.1}% of {:3}",
+            m.quantity,
+            100.0 * m.median,
+            m.count,
+            100.0 * m.median_resolved,
+            m.count_resolved
+        );
     }
     Ok(())
 }

@@ -9,6 +9,7 @@
 //! flexure's natural frequency, damping and size per axis for a Gauss-Markov flexure.
 
 use super::params::{ModelParams, Param};
+use super::search::LearnedValue;
 use crate::sim::{FlexureSpec, Scenario, DEG_PER_H};
 
 /// One learned quantity against the value drawn.
@@ -22,6 +23,9 @@ pub struct ParamError {
     pub learned: f64,
     /// `learned / truth − 1`.
     pub relative_error: f64,
+    /// The learner's own σ of the value relative to the value (likelihood curvature or
+    /// innovation count), when it has one: large means the data hardly tell.
+    pub relative_sigma: Option<f64>,
 }
 
 /// The quantities the draw gives a true value for, in the learner's units.
@@ -75,17 +79,29 @@ pub fn drawn_values(sc: &Scenario) -> Vec<(Param, f64)> {
     v
 }
 
-/// The learned model against the draw, quantity by quantity.
-pub fn param_errors(learned: &ModelParams, sc: &Scenario) -> Vec<ParamError> {
+/// The learned model against the draw, quantity by quantity, with the learner's own σ
+/// from `values` where it has one.
+pub fn param_errors(
+    learned: &ModelParams,
+    values: &[LearnedValue],
+    sc: &Scenario,
+) -> Vec<ParamError> {
     drawn_values(sc)
         .into_iter()
         .map(|(param, truth)| {
             let l = learned.get(param);
+            let relative_sigma = values
+                .iter()
+                .find(|v| v.param == param)
+                .and_then(|v| v.sigma)
+                .filter(|_| l > 0.0)
+                .map(|s| s / l);
             ParamError {
                 param,
                 truth,
                 learned: l,
                 relative_error: l / truth - 1.0,
+                relative_sigma,
             }
         })
         .collect()
@@ -114,9 +130,38 @@ pub fn kind(p: Param) -> &'static str {
     }
 }
 
-/// Median of |relative error| per kind over many runs, with the count, in the order of
-/// first appearance.
-pub fn median_by_kind(errors: &[ParamError]) -> Vec<(&'static str, f64, usize)> {
+/// The learner's relative σ under which the data are said to tell a value.
+pub const IDENTIFIABLE_RELATIVE_SIGMA: f64 = 0.2;
+
+/// One kind's median |relative error| over many runs.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct KindMedian {
+    /// The kind ([`kind`]).
+    pub quantity: &'static str,
+    /// Median over every value of the kind.
+    pub median: f64,
+    /// How many values.
+    pub count: usize,
+    /// Median over the values the learner resolved (its own relative σ at most
+    /// [`IDENTIFIABLE_RELATIVE_SIGMA`]); NaN when none.
+    pub median_resolved: f64,
+    /// How many of those.
+    pub count_resolved: usize,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    match n {
+        0 => f64::NAN,
+        _ if n % 2 == 1 => v[n / 2],
+        _ => (v[n / 2 - 1] + v[n / 2]) / 2.0,
+    }
+}
+
+/// Median of |relative error| per kind over many runs (all values, and those the learner
+/// resolved), in the order of first appearance.
+pub fn median_by_kind(errors: &[ParamError]) -> Vec<KindMedian> {
     let mut kinds: Vec<&'static str> = Vec::new();
     for e in errors {
         if !kinds.contains(&kind(e.param)) {
@@ -126,19 +171,22 @@ pub fn median_by_kind(errors: &[ParamError]) -> Vec<(&'static str, f64, usize)> 
     kinds
         .into_iter()
         .map(|k| {
-            let mut v: Vec<f64> = errors
-                .iter()
-                .filter(|e| kind(e.param) == k)
+            let of_kind = || errors.iter().filter(move |e| kind(e.param) == k);
+            let all: Vec<f64> = of_kind().map(|e| e.relative_error.abs()).collect();
+            let resolved: Vec<f64> = of_kind()
+                .filter(|e| {
+                    e.relative_sigma
+                        .is_some_and(|r| r <= IDENTIFIABLE_RELATIVE_SIGMA)
+                })
                 .map(|e| e.relative_error.abs())
                 .collect();
-            v.sort_by(f64::total_cmp);
-            let n = v.len();
-            let median = match n {
-                0 => f64::NAN,
-                _ if n % 2 == 1 => v[n / 2],
-                _ => (v[n / 2 - 1] + v[n / 2]) / 2.0,
-            };
-            (k, median, n)
+            KindMedian {
+                quantity: k,
+                count: all.len(),
+                median: median(all),
+                count_resolved: resolved.len(),
+                median_resolved: median(resolved),
+            }
         })
         .collect()
 }
@@ -155,7 +203,7 @@ mod tests {
             let sc = blind::draw(seed, 60.0, None);
             let cfg = CalibConfig::declared_for(&sc, 1.0 / sc.master.rate_hz);
             let m = ModelParams::from_config(&cfg);
-            for e in param_errors(&m, &sc) {
+            for e in param_errors(&m, &[], &sc) {
                 assert!(
                     e.relative_error.abs() < 1e-9,
                     "seed {seed}: {:?} {} vs {}",
@@ -169,19 +217,22 @@ mod tests {
 
     #[test]
     fn medians_pool_the_axes() {
-        let e = |param, relative_error| ParamError {
+        let e = |param, relative_error, relative_sigma| ParamError {
             param,
             truth: 1.0,
             learned: 1.0 + relative_error,
             relative_error,
+            relative_sigma,
         };
         let m = median_by_kind(&[
-            e(Param::FlexureOmega(0), 0.1),
-            e(Param::FlexureOmega(1), -0.3),
-            e(Param::FlexureOmega(2), 0.2),
-            e(Param::GyroArw, 0.05),
+            e(Param::FlexureOmega(0), 0.1, Some(0.05)),
+            e(Param::FlexureOmega(1), -0.3, None),
+            e(Param::FlexureOmega(2), 0.2, Some(0.5)),
+            e(Param::GyroArw, 0.05, Some(0.01)),
         ]);
-        assert_eq!(m[0], ("flexure natural frequency", 0.2, 3));
-        assert_eq!(m[1], ("gyro angle random walk", 0.05, 1));
+        assert_eq!(m[0].quantity, "flexure natural frequency");
+        assert_eq!((m[0].median, m[0].count), (0.2, 3));
+        assert_eq!((m[0].median_resolved, m[0].count_resolved), (0.1, 1));
+        assert_eq!((m[1].median, m[1].count), (0.05, 1));
     }
 }
