@@ -71,16 +71,13 @@ pub fn choose_flexure(rec: &crate::recording::Recording, cfg: &mut CalibConfig) 
 pub fn resolve_config(
     rec_dir: &Path,
     explicit: Option<&Path>,
-) -> Result<Option<(CalibConfig, String)>, String> {
+) -> Result<Option<(CalibConfig, PathBuf)>, String> {
     if let Some(p) = explicit {
-        return Ok(Some((CalibConfig::load(p)?, p.display().to_string())));
+        return Ok(Some((CalibConfig::load(p)?, p.to_path_buf())));
     }
     let beside = rec_dir.join("calibrate.toml");
     if beside.exists() {
-        return Ok(Some((
-            CalibConfig::load(&beside)?,
-            beside.display().to_string(),
-        )));
+        return Ok(Some((CalibConfig::load(&beside)?, beside)));
     }
     Ok(None)
 }
@@ -93,6 +90,8 @@ pub struct Prepared {
     pub flexure_source: String,
     /// The model learned from the recording, when it was learned.
     pub learned: Option<Learned>,
+    /// The configuration file declared (`--config`, else the recording's `calibrate.toml`).
+    pub config_file: Option<PathBuf>,
 }
 
 /// Learns the model of a recording from `start` and says on stderr what it found.
@@ -148,6 +147,7 @@ pub fn prepare_config(
     model: &ModelArgs,
 ) -> Result<Prepared, String> {
     let declared = resolve_config(rec_dir, explicit)?;
+    let config_file = declared.as_ref().map(|(_, p)| p.clone());
     let fixed = declared.as_ref().is_some_and(|(c, _)| !c.tune);
     if fixed {
         let Some((mut cfg, origin)) = declared else {
@@ -155,20 +155,21 @@ pub fn prepare_config(
         };
         model.apply(&mut cfg)?;
         drop_rate_matching_without_rate(rec, &mut cfg);
-        eprintln!("flexcal: configuration: {origin}");
+        eprintln!("flexcal: configuration: {}", origin.display());
         let flexure_source = choose_flexure(rec, &mut cfg);
         eprintln!("flexcal: flexure model: {flexure_source}");
         return Ok(Prepared {
             cfg,
             flexure_source,
             learned: None,
+            config_file,
         });
     }
     let inc = increment_noise(rec, 200_000)
         .map_err(|e| eprintln!("flexcal: IMU noise not read from the increments: {e}"))
         .ok();
     let (mut start, origin) = match declared {
-        Some((c, o)) => (c, format!("{o} (tune = true)")),
+        Some((c, o)) => (c, format!("{} (tune = true)", o.display())),
         None => {
             eprintln!("flexcal: no configuration given and none beside the recording");
             (
@@ -191,6 +192,7 @@ pub fn prepare_config(
             }
         ),
         learned: Some(learned),
+        config_file,
     })
 }
 
@@ -208,6 +210,7 @@ pub fn run(a: &Args) -> Result<(), String> {
         cfg,
         flexure_source,
         learned,
+        config_file,
     } = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &a.model)?;
     let res = runner::run(&rec, &cfg, a.precision)?;
     let sc = rec.truth.as_ref().and_then(|t| score(&res, t));
@@ -224,7 +227,16 @@ pub fn run(a: &Args) -> Result<(), String> {
         &res,
         sc.as_ref(),
     );
-    let doc = with_learned(doc, learned.as_ref());
+    let mut doc = with_learned(doc, learned.as_ref());
+    let verdict = crate::verdict::of_calibration(
+        &a.rec_dir,
+        &rec,
+        config_file.as_deref(),
+        learned.as_ref(),
+        &cfg,
+        &res,
+    );
+    verdict.insert_into(&mut doc);
     if let Some(l) = &learned {
         write_model_toml(&a.out, l)?;
     }
@@ -273,7 +285,7 @@ pub fn run(a: &Args) -> Result<(), String> {
             s.nees_mean
         );
     }
-    Ok(())
+    verdict.conclude()
 }
 
 /// Adds the learned model (`learned_model`) to a `summary.json` document.

@@ -40,7 +40,8 @@ pub struct Args {
 pub fn run(a: &Args) -> Result<(), String> {
     let rec = read_recording(&a.rec_dir).map_err(|e| e.to_string())?;
     // The declared model: no switches (the search adds the effects).
-    let cfg = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &ModelArgs::default())?.cfg;
+    let prepared = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &ModelArgs::default())?;
+    let cfg = prepared.cfg.clone();
     let candidates = if a.candidates.is_empty() {
         Effect::ALL.to_vec()
     } else {
@@ -59,7 +60,39 @@ pub fn run(a: &Args) -> Result<(), String> {
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
     let label = a.rec_dir.display().to_string();
     let command: String = std::env::args().collect::<Vec<_>>().join(" ");
-    let doc = report::diagnosis_json(&d, &label, &rec, &command);
+    let mut verdict = crate::verdict::of_calibration(
+        &a.rec_dir,
+        &rec,
+        prepared.config_file.as_deref(),
+        prepared.learned.as_ref(),
+        &d.after.cfg,
+        &d.after.result,
+    );
+    let left: Vec<String> = report::structure(&d.after, opts.alpha, report::master_rate_hz(&rec))
+        .into_iter()
+        .filter(|s| s.rejected)
+        .map(|s| {
+            format!(
+                "{} {}",
+                s.channel,
+                ["x", "y", "z"].get(s.axis).unwrap_or(&"?")
+            )
+        })
+        .collect();
+    if !left.is_empty() {
+        verdict.extend([crate::verdict::Finding::new(
+            crate::verdict::Severity::Warn,
+            "structure_unexplained",
+            format!(
+                "{} channel axes keep structure that no candidate of the vocabulary explains: {}",
+                left.len(),
+                left.join(", ")
+            ),
+        )
+        .num("channels", left.len() as f64)]);
+    }
+    let mut doc = report::diagnosis_json(&d, &label, &rec, &command);
+    verdict.insert_into(&mut doc);
     let text = serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())?;
     let path = a.out.join("diagnosis.json");
     std::fs::write(&path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
@@ -77,10 +110,6 @@ pub fn run(a: &Args) -> Result<(), String> {
             t.effect, t.estimate, t.sigma, t.wald, t.likelihood_ratio, t.threshold
         );
     }
-    let left = report::structure(&d.after, opts.alpha, report::master_rate_hz(&rec))
-        .into_iter()
-        .filter(|s| s.rejected)
-        .count();
-    println!("  channels with unexplained structure: {left}");
-    Ok(())
+    println!("  channels with unexplained structure: {}", left.len());
+    verdict.conclude()
 }

@@ -160,6 +160,9 @@ fn ratio_figure(scenario: &str, agg: &Aggregate) -> Figure {
 
 /// Runs `flexcal montecarlo`.
 pub fn run(a: &Args) -> Result<(), String> {
+    if a.runs == 0 {
+        return Err("--runs must be at least 1".into());
+    }
     let sc = a.scenario.load()?;
     let mut cfg = CalibConfig::declared_for(&sc, 1.0 / sc.master.rate_hz);
     a.model.apply(&mut cfg)?;
@@ -198,6 +201,15 @@ pub fn run(a: &Args) -> Result<(), String> {
         "nis_mean": runs.iter().map(|r| r.nis).sum::<f64>() / runs.len().max(1) as f64,
         "per_run": runs.iter().map(|r| json!({"seed": r.seed, "nees": r.nees, "nis_mean": r.nis, "error": r.error, "sigma": r.sigma})).collect::<Vec<_>>(),
     });
+    let ratios: Vec<(&str, f64)> = (0..9)
+        .map(|i| (NAMES[i], agg.rms[i] / agg.mean_sigma[i]))
+        .collect();
+    let seeds_nees: Vec<(u64, f64)> = runs.iter().map(|r| (r.seed, r.nees)).collect();
+    let verdict = crate::verdict::Verdict {
+        findings: crate::verdict::ensemble::check(&seeds_nees, agg.nees_band, &ratios),
+    };
+    let mut doc = doc;
+    verdict.insert_into(&mut doc);
     let path = a.out.join("montecarlo.json");
     std::fs::write(
         &path,
@@ -251,5 +263,5 @@ pub fn run(a: &Args) -> Result<(), String> {
         "  mean NEES {:.3} (95% band [{:.3}, {:.3}])",
         agg.nees_mean, agg.nees_band[0], agg.nees_band[1]
     );
-    Ok(())
+    verdict.conclude()
 }
