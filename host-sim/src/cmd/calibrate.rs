@@ -9,6 +9,8 @@ use crate::cmd::common::ModelArgs;
 use crate::learn::increments::{increment_noise, IncrementNoise};
 use crate::learn::{default_start, learn, model_toml, LearnOptions, Learned};
 use crate::recording::read_recording;
+use crate::report::markdown::{report_md, ReportInput};
+use crate::report::units::{sig3, Unit, ACCEL_BIAS, ANGLE, GYRO_BIAS};
 use crate::report::{plots, summary};
 use std::path::{Path, PathBuf};
 
@@ -246,10 +248,22 @@ pub fn run(a: &Args) -> Result<(), String> {
     summary::write_estimates_csv(&a.out.join("estimates.csv"), &res.rows)
         .map_err(|e| e.to_string())?;
     let label = a.rec_dir.display().to_string();
-    plots::write_estimate_plots(&a.out, &label, &res.rows, rec.truth.as_ref())
+    let plot_files = plots::write_estimate_plots(&a.out, &label, &res.rows, rec.truth.as_ref())
         .map_err(|e| e.to_string())?;
+    let report = ReportInput {
+        label: &label,
+        rec: &rec,
+        duration_s: duration,
+        cfg: &cfg,
+        model_origin: model_origin(config_file.as_deref(), learned.as_ref()),
+        flexure_source: &flexure_source,
+        score: sc.as_ref(),
+        plots: &plot_files,
+    };
+    let path = a.out.join("report.md");
+    std::fs::write(&path, report_md(&report, &res, &verdict))
+        .map_err(|e| format!("{}: {e}", path.display()))?;
     let last = res.last();
-    let dph = 180.0 / std::f64::consts::PI * 3600.0;
     println!(
         "calibrated {} ({} s, {:?}) -> {}",
         label,
@@ -257,20 +271,22 @@ pub fn run(a: &Args) -> Result<(), String> {
         a.precision,
         a.out.display()
     );
-    println!(
-        "  gyro bias  (deg/h): {:?} ± {:?}",
-        last.gyro_bias.map(|v| round(v * dph)),
-        last.gyro_bias_sigma.map(|v| round(v * dph))
+    let line = |name: &str, u: Unit, v: [f64; 3], s: [f64; 3]| {
+        let f = |x: [f64; 3]| x.map(|x| sig3(x * u.scale)).join(", ");
+        println!("  {name:<13} ({}): [{}] ± [{}]", u.name, f(v), f(s));
+    };
+    line("gyro bias", GYRO_BIAS, last.gyro_bias, last.gyro_bias_sigma);
+    line(
+        "accel bias",
+        ACCEL_BIAS,
+        last.accel_bias,
+        last.accel_bias_sigma,
     );
-    println!(
-        "  accel bias (mg):    {:?} ± {:?}",
-        last.accel_bias.map(|v| round(v / 9.806_65e-3)),
-        last.accel_bias_sigma.map(|v| round(v / 9.806_65e-3))
-    );
-    println!(
-        "  misalignment (deg): {:?} ± {:?}",
-        last.misalignment.map(|v| round(v.to_degrees())),
-        last.misalignment_sigma.map(|v| round(v.to_degrees()))
+    line(
+        "misalignment",
+        ANGLE,
+        last.misalignment,
+        last.misalignment_sigma,
     );
     println!(
         "  NIS mean {:.3}, gated {}",
@@ -278,13 +294,19 @@ pub fn run(a: &Args) -> Result<(), String> {
         res.innovations.iter().filter(|i| !i.accepted).count()
     );
     if let Some(s) = sc {
+        let f = |x: [f64; 3], u: Unit| x.map(|x| sig3(x * u.scale)).join(", ");
         println!(
-            "  errors: gyro bias {:?} deg/h, accel bias {:?} mg, NEES {:.2}",
-            s.gyro_bias.map(|v| round(v * dph)),
-            s.accel_bias.map(|v| round(v / 9.806_65e-3)),
+            "  errors: gyro bias [{}] {}, accel bias [{}] {}, misalignment [{}] {}, NEES {:.2}",
+            f(s.gyro_bias, GYRO_BIAS),
+            GYRO_BIAS.name,
+            f(s.accel_bias, ACCEL_BIAS),
+            ACCEL_BIAS.name,
+            f(s.misalignment, ANGLE),
+            ANGLE.name,
             s.nees_mean
         );
     }
+    println!("  report: {}", path.display());
     verdict.conclude()
 }
 
@@ -308,10 +330,20 @@ pub fn write_model_toml(out: &Path, l: &Learned) -> Result<(), String> {
     Ok(())
 }
 
-fn round(v: f64) -> f64 {
-    if v == 0.0 || !v.is_finite() {
-        return v;
+/// Where the model of a run came from, in words: the configuration file, or learned
+/// from the recording (adopted or not) from its start.
+pub fn model_origin(config_file: Option<&Path>, learned: Option<&Learned>) -> String {
+    match (learned, config_file) {
+        (Some(l), _) => format!(
+            "learned from the recording starting from the {} ({})",
+            l.start_origin,
+            if l.adopted {
+                "adopted"
+            } else {
+                "not adopted: the start is kept"
+            }
+        ),
+        (None, Some(p)) => format!("the configuration file `{}`", p.display()),
+        (None, None) => "the built-in default".to_string(),
     }
-    let mag = 10f64.powi(3 - v.abs().log10().ceil() as i32);
-    (v * mag).round() / mag
 }

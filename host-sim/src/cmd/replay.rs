@@ -716,6 +716,29 @@ pub fn write_outputs(a: &Args, r: &Replayed) -> Result<(), String> {
     std::fs::write(&path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
     summary::write_estimates_csv(&a.out.join("estimates.csv"), &res.rows)
         .map_err(|e| e.to_string())?;
+    let label = a.rec_dir.display().to_string();
+    let plot_files =
+        crate::report::plots::write_estimate_plots(&a.out, &label, &res.rows, rec.truth.as_ref())
+            .map_err(|e| e.to_string())?;
+    let report = crate::report::markdown::ReportInput {
+        label: &label,
+        rec,
+        duration_s: duration,
+        cfg,
+        model_origin: crate::cmd::calibrate::model_origin(
+            r.config_file.as_deref(),
+            r.learned.as_ref(),
+        ),
+        flexure_source,
+        score: None,
+        plots: &plot_files,
+    };
+    let path = a.out.join("report.md");
+    std::fs::write(
+        &path,
+        crate::report::markdown::report_md(&report, res, &verdict),
+    )
+    .map_err(|e| format!("{}: {e}", path.display()))?;
     println!(
         "replayed {} ({} s) in QEMU: {} frames sent, {} received by the board, {} estimates back ({:.1} s) -> {}",
         a.rec_dir.display(),
