@@ -110,6 +110,19 @@ pub fn run(a: &Args) -> Result<(), String> {
             t.effect, t.estimate, t.sigma, t.wald, t.likelihood_ratio, t.threshold
         );
     }
+    for (k, r) in d.rounds.iter().enumerate() {
+        for t in r.tests.iter().filter(|t| t.significant) {
+            println!(
+                "  round {}: {} (Wald {:.1}, LR {:.1}, threshold {:.1}): {}",
+                k + 1,
+                t.effect,
+                t.wald,
+                t.likelihood_ratio,
+                t.threshold,
+                report::decision(t, r)
+            );
+        }
+    }
     println!("  channels with unexplained structure: {}", left.len());
     verdict.conclude()
 }
