@@ -1,6 +1,6 @@
-//! `report.md` of `flexcal calibrate` and `flexcal replay`: the verdict first, then the
+//! `report.md` of `flexcal calibrate` and `flexcal replay`: the verdict in a line, the
 //! final estimates in engineering units (`units`) with σ (and the error against the
-//! truth when the recording has one), per-channel NIS and whiteness, the model used
+//! truth when the recording has one), the verdict's findings, per-channel NIS and whiteness, the model used
 //! (lever arm, flexure, noise, effects carried) and links to the plots. A page for a
 //! navigation engineer; `summary.json` holds the same in SI for machines.
 
@@ -11,7 +11,7 @@ use crate::calib::run::CalibResult;
 use crate::calib::score::Score;
 use crate::recording::Recording;
 use crate::verdict::run::nis_band;
-use crate::verdict::{Level, Verdict};
+use crate::verdict::{Level, Severity, Verdict};
 use std::fmt::Write;
 
 /// What the report is about, besides the run itself.
@@ -45,8 +45,9 @@ pub fn report_md(r: &ReportInput<'_>, res: &CalibResult, verdict: &Verdict) -> S
         res.precision,
         r.model_origin
     );
-    verdict_section(&mut s, verdict);
+    verdict_summary(&mut s, verdict);
     estimates_section(&mut s, r, res);
+    verdict_section(&mut s, verdict);
     residuals_section(&mut s, res);
     model_section(&mut s, r, res);
     let _ = writeln!(s, "## Plots\n");
@@ -56,13 +57,44 @@ pub fn report_md(r: &ReportInput<'_>, res: &CalibResult, verdict: &Verdict) -> S
     s
 }
 
-fn verdict_section(s: &mut String, v: &Verdict) {
+/// The verdict in one line at the top: its level and the codes of its warnings and
+/// failures with their counts (the findings themselves follow the estimates).
+fn verdict_summary(s: &mut String, v: &Verdict) {
     let word = match v.level() {
         Level::Pass => "PASS",
         Level::Warn => "WARN",
         Level::Fail => "FAIL",
     };
-    let _ = writeln!(s, "## Verdict: **{word}**\n");
+    let mut codes: Vec<(&str, usize)> = Vec::new();
+    for f in v.findings.iter().filter(|f| f.severity >= Severity::Warn) {
+        match codes.iter_mut().find(|(c, _)| *c == f.code) {
+            Some((_, n)) => *n += 1,
+            None => codes.push((f.code, 1)),
+        }
+    }
+    let list: Vec<String> = codes
+        .iter()
+        .map(|(c, n)| {
+            if *n > 1 {
+                format!("`{c}` ×{n}")
+            } else {
+                format!("`{c}`")
+            }
+        })
+        .collect();
+    let _ = writeln!(
+        s,
+        "## Verdict: **{word}**{}\n",
+        if list.is_empty() {
+            String::new()
+        } else {
+            format!(" — {}", list.join(", "))
+        }
+    );
+}
+
+fn verdict_section(s: &mut String, v: &Verdict) {
+    let _ = writeln!(s, "## Findings\n");
     if v.findings.is_empty() {
         let _ = writeln!(s, "No finding.\n");
         return;
