@@ -127,8 +127,10 @@ const NAMES: [&str; 9] = [
 ];
 
 /// RMS error over mean σ for each calibrated state (1: the filter's σ is right;
-/// the bound is 1.3), one point per state in the order of `NAMES`.
-fn ratio_figure(scenario: &str, agg: &Aggregate) -> Figure {
+/// the verdict's bound for `runs` runs, `verdict::ensemble::ratio_bound`), one point per
+/// state in the order of `NAMES`.
+fn ratio_figure(scenario: &str, agg: &Aggregate, runs: usize) -> Figure {
+    let bound = crate::verdict::ensemble::ratio_bound(runs);
     let x: Vec<f64> = (0..NAMES.len()).map(|i| i as f64).collect();
     let ratio: Vec<f64> = agg
         .rms
@@ -153,7 +155,10 @@ fn ratio_figure(scenario: &str, agg: &Aggregate) -> Figure {
                 y: ratio,
             }],
             bands: vec![],
-            dashed: vec![line("1 (consistent)", 1.0), line("1.3 (bound)", 1.3)],
+            dashed: vec![
+                line("1 (consistent)", 1.0),
+                line(&format!("{bound:.2} (bound for {runs} runs)"), bound),
+            ],
         }],
     }
 }
@@ -217,6 +222,7 @@ pub fn run(a: &Args) -> Result<(), String> {
     )
     .map_err(|e| format!("{}: {e}", path.display()))?;
     let x: Vec<f64> = runs.iter().map(|r| r.seed as f64).collect();
+    let single = crate::verdict::ensemble::single_run_band();
     let fig = Figure {
         title: format!(
             "Monte Carlo `{}`: final NEES of the 9 calibrated states per run",
@@ -225,27 +231,31 @@ pub fn run(a: &Args) -> Result<(), String> {
         x_label: "seed".into(),
         panels: vec![Panel {
             title: format!(
-                "mean NEES {:.2}, 95% band of the mean [{:.2}, {:.2}]",
-                agg.nees_mean, agg.nees_band[0], agg.nees_band[1]
+                "single runs against the single-run χ²(9) 99% band [{:.2}, {:.2}]; mean {:.2}, 95% band of the mean [{:.2}, {:.2}]",
+                single[0], single[1], agg.nees_mean, agg.nees_band[0], agg.nees_band[1]
             ),
             y_label: "NEES".into(),
             series: vec![Series {
-                name: "NEES".into(),
+                name: "NEES of one run".into(),
                 x: x.clone(),
                 y: runs.iter().map(|r| r.nees).collect(),
             }],
             bands: vec![Band {
-                name: "band of the mean".into(),
+                name: "single-run 99% band".into(),
                 x: x.clone(),
-                lo: vec![agg.nees_band[0]; x.len()],
-                hi: vec![agg.nees_band[1]; x.len()],
+                lo: vec![single[0]; x.len()],
+                hi: vec![single[1]; x.len()],
             }],
-            dashed: vec![],
+            dashed: vec![Series {
+                name: format!("mean {:.2}", agg.nees_mean),
+                x: x.clone(),
+                y: vec![agg.nees_mean; x.len()],
+            }],
         }],
     };
     fig.write(&a.out.join("nees.svg"))
         .map_err(|e| e.to_string())?;
-    ratio_figure(&sc.name, &agg)
+    ratio_figure(&sc.name, &agg, runs.len())
         .write(&a.out.join("rms_over_sigma.svg"))
         .map_err(|e| e.to_string())?;
     println!(
