@@ -6,6 +6,7 @@ use crate::calib::flexure_id::identify_flexure;
 use crate::calib::run::{self as runner, Precision};
 use crate::calib::score::score;
 use crate::cmd::common::ModelArgs;
+use crate::cmd::progress::Progress;
 use crate::learn::increments::{increment_noise, IncrementNoise};
 use crate::learn::{default_start, learn, model_toml, LearnOptions, Learned};
 use crate::recording::read_recording;
@@ -207,14 +208,18 @@ fn drop_rate_matching_without_rate(rec: &crate::recording::Recording, cfg: &mut 
 
 /// Runs `flexcal calibrate`.
 pub fn run(a: &Args) -> Result<(), String> {
+    let progress = Progress::start("reading the recording");
     let rec = read_recording(&a.rec_dir).map_err(|e| e.to_string())?;
+    progress.phase("preparing the model");
     let Prepared {
         cfg,
         flexure_source,
         learned,
         config_file,
     } = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &a.model)?;
+    progress.phase("filtering");
     let res = runner::run(&rec, &cfg, a.precision)?;
+    progress.phase("checking and writing the outputs");
     let sc = rec.truth.as_ref().and_then(|t| score(&res, t));
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
     let duration = match (rec.imu.first(), rec.imu.last()) {
@@ -263,6 +268,7 @@ pub fn run(a: &Args) -> Result<(), String> {
     let path = a.out.join("report.md");
     std::fs::write(&path, report_md(&report, &res, &verdict))
         .map_err(|e| format!("{}: {e}", path.display()))?;
+    drop(progress);
     let last = res.last();
     println!(
         "calibrated {} ({} s, {:?}) -> {}",

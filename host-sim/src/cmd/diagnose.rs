@@ -38,7 +38,9 @@ pub struct Args {
 
 /// Runs `flexcal diagnose`.
 pub fn run(a: &Args) -> Result<(), String> {
+    let progress = crate::cmd::progress::Progress::start("reading the recording");
     let rec = read_recording(&a.rec_dir).map_err(|e| e.to_string())?;
+    progress.phase("preparing the declared model");
     // The declared model: no switches (the search adds the effects).
     let prepared = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &ModelArgs::default())?;
     let cfg = prepared.cfg.clone();
@@ -56,7 +58,13 @@ pub fn run(a: &Args) -> Result<(), String> {
         alpha: a.alpha,
         holdout_fraction: a.holdout_fraction,
     };
+    progress.phase(&format!(
+        "searching {} candidates (budget {})",
+        opts.candidates.len(),
+        opts.budget
+    ));
     let d = diagnose(&rec, &cfg, &opts)?;
+    progress.phase("checking and writing the outputs");
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
     let label = a.rec_dir.display().to_string();
     let command: String = std::env::args().collect::<Vec<_>>().join(" ");
@@ -100,6 +108,7 @@ pub fn run(a: &Args) -> Result<(), String> {
     let path = a.out.join("report.md");
     std::fs::write(&path, md).map_err(|e| format!("{}: {e}", path.display()))?;
     report::write_plots(&a.out, &d, &rec).map_err(|e| e.to_string())?;
+    drop(progress);
     println!("diagnosed {label} -> {}", a.out.display());
     if d.found.is_empty() {
         println!("  no effect found");

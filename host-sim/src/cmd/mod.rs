@@ -6,6 +6,7 @@ pub mod diagnose;
 pub mod identify;
 pub mod montecarlo;
 pub mod paper_figures;
+pub mod progress;
 pub mod replay;
 pub mod simulate;
 

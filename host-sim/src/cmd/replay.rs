@@ -633,7 +633,9 @@ pub fn replay(a: &Args) -> Result<Replayed, String> {
 
 /// Runs `flexcal replay`.
 pub fn run(a: &Args) -> Result<(), String> {
+    let progress = crate::cmd::progress::Progress::start("replaying through the firmware in QEMU");
     let r = replay(a)?;
+    drop(progress);
     write_outputs(a, &r)
 }
 
