@@ -386,3 +386,69 @@ fn every_semantic_bad_input_gets_its_verdict() {
         wrong.join("\n")
     );
 }
+
+/// The binary end to end: a FAIL still writes its outputs, prints the verdict last,
+/// puts it in `summary.json` and exits non-zero.
+#[test]
+fn fail_writes_outputs_prints_last_and_exits_non_zero() {
+    let base = clean();
+    let tmp = tempfile::tempdir().unwrap();
+    let c = case("master clock 1000 s late", Level::Fail, "time_no_overlap")
+        .rec(|r| r.master.iter_mut().for_each(|m| m.t += 1000.0));
+    let dir = write_case(tmp.path(), 0, &c, &base);
+    let out = tmp.path().join("cal");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_flexcal"))
+        .arg("calibrate")
+        .arg(&dir)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let verdict_line = stdout.lines().position(|l| l.starts_with("verdict: "));
+    let findings_after =
+        verdict_line.map(|i| stdout.lines().skip(i + 1).all(|l| l.starts_with("  ")));
+    assert_eq!(findings_after, Some(true), "{stdout}");
+    assert!(stdout.contains("verdict: FAIL"), "{stdout}");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["verdict"]["level"], "FAIL");
+    let codes: Vec<&str> = summary["verdict"]["findings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|f| f["code"].as_str())
+        .collect();
+    assert!(
+        codes.contains(&"time_no_overlap") && codes.contains(&"nothing_estimated"),
+        "{codes:?}"
+    );
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(report.contains("## Verdict: **FAIL**"), "{report}");
+}
+
+/// `montecarlo --runs 0` is refused instead of printing NaN.
+#[test]
+fn montecarlo_refuses_zero_runs() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_flexcal"))
+        .args([
+            "montecarlo",
+            "--scenario",
+            "matched",
+            "--runs",
+            "0",
+            "--out",
+        ])
+        .arg(tmp.path())
+        .output()
+        .unwrap();
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr),
+    );
+    assert!(!o.status.success());
+    assert!(stderr.contains("--runs must be at least 1"), "{stderr}");
+    assert!(!stdout.contains("NaN"), "{stdout}");
+}
