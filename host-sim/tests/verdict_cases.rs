@@ -99,6 +99,12 @@ fn cases() -> Vec<Case> {
             "time_overlap_low",
         )
         .rec(|r| r.master.iter_mut().for_each(|m| m.t += 25.0)),
+        case(
+            "master 30 s early: its queue overflows",
+            Fail,
+            "queue_dropped",
+        )
+        .rec(|r| r.master.iter_mut().for_each(|m| m.t -= 30.0)),
         case("master clock jumps 1000 s midway", Fail, "time_overlap_low").rec(|r| {
             let n = r.master.len() / 2;
             r.master.iter_mut().skip(n).for_each(|m| m.t += 1000.0)
