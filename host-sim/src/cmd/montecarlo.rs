@@ -126,35 +126,40 @@ const NAMES: [&str; 9] = [
     "bgx", "bgy", "bgz", "bax", "bay", "baz", "mux", "muy", "muz",
 ];
 
-/// RMS error over mean σ for each calibrated state (1: the filter's σ is right;
-/// the verdict's bound for `runs` runs, `verdict::ensemble::ratio_bound`), one point per
-/// state in the order of `NAMES`.
+/// RMS error over mean σ for each calibrated state as a bar chart, one labelled bar per
+/// state in the order of `NAMES` (1: the filter's σ is right; dashed, the verdict's bound
+/// for `runs` runs, `verdict::ensemble::ratio_bound`). A bar is a band from 0 to its
+/// value over [i − 0.4, i + 0.4].
 fn ratio_figure(scenario: &str, agg: &Aggregate, runs: usize) -> Figure {
     let bound = crate::verdict::ensemble::ratio_bound(runs);
-    let x: Vec<f64> = (0..NAMES.len()).map(|i| i as f64).collect();
-    let ratio: Vec<f64> = agg
-        .rms
+    let bars: Vec<Band> = NAMES
         .iter()
-        .zip(&agg.mean_sigma)
-        .map(|(r, s)| r / s)
+        .enumerate()
+        .map(|(i, name)| {
+            let r = agg.rms[i] / agg.mean_sigma[i];
+            let x = i as f64;
+            Band {
+                name: format!("{name} {r:.2}"),
+                x: vec![x - 0.4, x + 0.4],
+                lo: vec![0.0, 0.0],
+                hi: vec![r, r],
+            }
+        })
         .collect();
+    let x = vec![-0.5, NAMES.len() as f64 - 0.5];
     let line = |name: &str, v: f64| Series {
         name: name.into(),
         x: x.clone(),
         y: vec![v; x.len()],
     };
     Figure {
-        title: format!("Monte Carlo `{scenario}`: RMS error / mean σ per state"),
-        x_label: format!("state: {}", NAMES.join(", ")),
+        title: format!("Monte Carlo `{scenario}` ({runs} runs): RMS error / mean σ per state"),
+        x_label: format!("state 0..8: {}", NAMES.join(", ")),
         panels: vec![Panel {
             title: "RMS final error over the filter's mean σ".into(),
             y_label: "ratio".into(),
-            series: vec![Series {
-                name: "RMS / mean σ".into(),
-                x: x.clone(),
-                y: ratio,
-            }],
-            bands: vec![],
+            series: vec![],
+            bands: bars,
             dashed: vec![
                 line("1 (consistent)", 1.0),
                 line(&format!("{bound:.2} (bound for {runs} runs)"), bound),
