@@ -170,9 +170,35 @@ fn error_panels(q: &Quantity, rows: &[EstimateRow], truth: &Truth) -> Option<Vec
     Some(panels)
 }
 
+/// The σ of the three axes of `q` as log₁₀ of its display unit, one panel: how fast each
+/// state is observed, decades apart on one axis (the plot engine has linear axes, so
+/// the axis carries log₁₀ σ and says so).
+fn sigma_panels(q: &Quantity, rows: &[EstimateRow]) -> Vec<Panel> {
+    let t: Vec<f64> = rows.iter().map(|r| r.t).collect();
+    let series = ["x", "y", "z"]
+        .iter()
+        .enumerate()
+        .map(|(axis, name)| Series {
+            name: format!("σ {name}"),
+            x: t.clone(),
+            y: rows
+                .iter()
+                .map(|r| ((q.get)(r).1[axis] * q.scale).log10())
+                .collect(),
+        })
+        .collect();
+    vec![Panel {
+        title: format!("{}: σ of each axis", q.title),
+        y_label: format!("log₁₀ σ ({})", q.unit),
+        series,
+        bands: vec![],
+        dashed: vec![],
+    }]
+}
+
 /// Writes, for every quantity into `dir`: `<stem>.svg` (the whole run),
 /// `<stem>_converged.svg` (framed from the time every σ is within 3 times its final
-/// value) and, with a truth, `<stem>_error.svg` (estimate − truth with ±σ and ±3σ).
+/// value), `<stem>_sigma.svg` (log₁₀ σ of each axis) and, with a truth, `<stem>_error.svg` (estimate − truth with ±σ and ±3σ).
 /// Returns the files written.
 pub fn write_estimate_plots(
     dir: &Path,
@@ -198,6 +224,11 @@ pub fn write_estimate_plots(
                     sig3(t_from)
                 ),
                 Some(estimate_panels(q, rows.get(from..).unwrap_or(rows), truth)),
+            ),
+            (
+                format!("{}_sigma.svg", q.stem),
+                format!("{}: σ on a log scale — {label}", q.title),
+                Some(sigma_panels(q, rows)),
             ),
             (
                 format!("{}_error.svg", q.stem),
