@@ -270,9 +270,17 @@ pub fn run(a: &Args) -> Result<(), String> {
         sc.duration_s,
         a.precision
     );
-    println!("  state   rms error     mean sigma    ratio");
-    for ((name, rms), sigma) in NAMES.iter().zip(agg.rms).zip(agg.mean_sigma) {
-        println!("  {name:5} {rms:12.4e}  {sigma:12.4e}  {:6.3}", rms / sigma);
+    println!("  state  unit    rms error   mean sigma   ratio");
+    for (i, ((name, rms), sigma)) in NAMES.iter().zip(agg.rms).zip(agg.mean_sigma).enumerate() {
+        use crate::report::units::{sig3, ACCEL_BIAS, ANGLE, GYRO_BIAS};
+        let u = [GYRO_BIAS, ACCEL_BIAS, ANGLE][i / 3];
+        println!(
+            "  {name:5}  {:<6} {:>10}   {:>10}   {:6.3}",
+            u.name,
+            sig3(rms * u.scale),
+            sig3(sigma * u.scale),
+            rms / sigma
+        );
     }
     println!(
         "  mean NEES {:.3} (95% band [{:.3}, {:.3}])",
