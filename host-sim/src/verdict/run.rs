@@ -30,6 +30,10 @@ pub const GATED_WARN: f64 = 0.01;
 pub const GATED_FAIL: f64 = 0.1;
 /// Dropped fraction of master messages above which the run FAILs.
 pub const DROPPED_FAIL: f64 = 0.01;
+/// Refused (stale, out-of-order) master messages up to this fraction are a NOTE, above
+/// it a WARN: a clock offset or delay can make the first message older than the
+/// alignment buffer, which loses one message of thousands.
+pub const REFUSED_NOTE: f64 = 0.001;
 /// A σ above this fraction of its prior at the end has not fallen: the data added less
 /// than a quarter of the prior's information (1/0.9² − 1 = 0.23).
 pub const SIGMA_FALL: f64 = 0.9;
@@ -134,8 +138,13 @@ fn messages(rec: &Recording, res: &CalibResult) -> Vec<Finding> {
         ),
     ] {
         if n > 0 {
+            let sev = if f64::from(n) > REFUSED_NOTE * total as f64 {
+                Severity::Warn
+            } else {
+                Severity::Note
+            };
             out.push(counts(Finding::new(
-                Severity::Warn,
+                sev,
                 code,
                 format!("{n} master messages were refused: {what}"),
             )));
