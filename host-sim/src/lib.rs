@@ -9,3 +9,4 @@ pub mod plot;
 pub mod recording;
 pub mod report;
 pub mod sim;
+pub mod verdict;

@@ -381,11 +381,14 @@ fn paper_with_effects(duration_s: f64, dir: &Path, effects: &[Effect]) -> PathBu
     let rec_dir = dir.join("rec");
     flexcal_sim::cmd::simulate::run(&flexcal_sim::cmd::simulate::Args {
         scenario: ScenarioArgs {
-            scenario: "paper".into(),
+            scenario: Some("paper".into()),
+            blind: false,
+            effect: None,
             duration: Some(duration_s),
             seed: 7,
         },
         out: rec_dir.clone(),
+        drawn: None,
     })
     .expect("flexcal simulate");
     let declared = std::fs::read_to_string(rec_dir.join("calibrate.toml")).expect("calibrate.toml");

@@ -6,9 +6,12 @@ use crate::calib::flexure_id::identify_flexure;
 use crate::calib::run::{self as runner, Precision};
 use crate::calib::score::score;
 use crate::cmd::common::ModelArgs;
+use crate::cmd::progress::Progress;
 use crate::learn::increments::IncrementNoise;
 use crate::learn::{learn, model_toml, start_from_nothing, LearnOptions, Learned};
 use crate::recording::read_recording;
+use crate::report::markdown::{report_md, ReportInput};
+use crate::report::units::{sig3, Unit, ACCEL_BIAS, ANGLE, GYRO_BIAS};
 use crate::report::{plots, summary};
 use std::path::{Path, PathBuf};
 
@@ -71,16 +74,13 @@ pub fn choose_flexure(rec: &crate::recording::Recording, cfg: &mut CalibConfig) 
 pub fn resolve_config(
     rec_dir: &Path,
     explicit: Option<&Path>,
-) -> Result<Option<(CalibConfig, String)>, String> {
+) -> Result<Option<(CalibConfig, PathBuf)>, String> {
     if let Some(p) = explicit {
-        return Ok(Some((CalibConfig::load(p)?, p.display().to_string())));
+        return Ok(Some((CalibConfig::load(p)?, p.to_path_buf())));
     }
     let beside = rec_dir.join("calibrate.toml");
     if beside.exists() {
-        return Ok(Some((
-            CalibConfig::load(&beside)?,
-            beside.display().to_string(),
-        )));
+        return Ok(Some((CalibConfig::load(&beside)?, beside)));
     }
     Ok(None)
 }
@@ -93,6 +93,8 @@ pub struct Prepared {
     pub flexure_source: String,
     /// The model learned from the recording, when it was learned.
     pub learned: Option<Learned>,
+    /// The configuration file declared (`--config`, else the recording's `calibrate.toml`).
+    pub config_file: Option<PathBuf>,
 }
 
 /// Learns the model of a recording from `start` and says on stderr what it found.
@@ -148,6 +150,7 @@ pub fn prepare_config(
     model: &ModelArgs,
 ) -> Result<Prepared, String> {
     let declared = resolve_config(rec_dir, explicit)?;
+    let config_file = declared.as_ref().map(|(_, p)| p.clone());
     let fixed = declared.as_ref().is_some_and(|(c, _)| !c.tune);
     if fixed {
         let Some((mut cfg, origin)) = declared else {
@@ -155,13 +158,14 @@ pub fn prepare_config(
         };
         model.apply(&mut cfg)?;
         drop_rate_matching_without_rate(rec, &mut cfg);
-        eprintln!("flexcal: configuration: {origin}");
+        eprintln!("flexcal: configuration: {}", origin.display());
         let flexure_source = choose_flexure(rec, &mut cfg);
         eprintln!("flexcal: flexure model: {flexure_source}");
         return Ok(Prepared {
             cfg,
             flexure_source,
             learned: None,
+            config_file,
         });
     }
     let (nothing, inc) = start_from_nothing(rec);
@@ -169,7 +173,7 @@ pub fn prepare_config(
         .map_err(|e| eprintln!("flexcal: IMU noise not read from the increments: {e}"))
         .ok();
     let (mut start, origin) = match declared {
-        Some((c, o)) => (c, format!("{o} (tune = true)")),
+        Some((c, o)) => (c, format!("{} (tune = true)", o.display())),
         None => {
             eprintln!("flexcal: no configuration given and none beside the recording");
             (nothing, "built-in default".to_string())
@@ -189,6 +193,7 @@ pub fn prepare_config(
             }
         ),
         learned: Some(learned),
+        config_file,
     })
 }
 
@@ -201,13 +206,18 @@ fn drop_rate_matching_without_rate(rec: &crate::recording::Recording, cfg: &mut 
 
 /// Runs `flexcal calibrate`.
 pub fn run(a: &Args) -> Result<(), String> {
+    let progress = Progress::start("reading the recording");
     let rec = read_recording(&a.rec_dir).map_err(|e| e.to_string())?;
+    progress.phase("preparing the model");
     let Prepared {
         cfg,
         flexure_source,
         learned,
+        config_file,
     } = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &a.model)?;
+    progress.phase("filtering");
     let res = runner::run(&rec, &cfg, a.precision)?;
+    progress.phase("checking and writing the outputs");
     let sc = rec.truth.as_ref().and_then(|t| score(&res, t));
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
     let duration = match (rec.imu.first(), rec.imu.last()) {
@@ -222,7 +232,16 @@ pub fn run(a: &Args) -> Result<(), String> {
         &res,
         sc.as_ref(),
     );
-    let doc = with_learned(doc, learned.as_ref());
+    let mut doc = with_learned(doc, learned.as_ref());
+    let verdict = crate::verdict::of_calibration(
+        &a.rec_dir,
+        &rec,
+        config_file.as_deref(),
+        learned.as_ref(),
+        &cfg,
+        &res,
+    );
+    verdict.insert_into(&mut doc);
     if let Some(l) = &learned {
         write_model_toml(&a.out, l)?;
     }
@@ -232,10 +251,23 @@ pub fn run(a: &Args) -> Result<(), String> {
     summary::write_estimates_csv(&a.out.join("estimates.csv"), &res.rows)
         .map_err(|e| e.to_string())?;
     let label = a.rec_dir.display().to_string();
-    plots::write_estimate_plots(&a.out, &label, &res.rows, rec.truth.as_ref())
+    let plot_files = plots::write_estimate_plots(&a.out, &label, &res.rows, rec.truth.as_ref())
         .map_err(|e| e.to_string())?;
+    let report = ReportInput {
+        label: &label,
+        rec: &rec,
+        duration_s: duration,
+        cfg: &cfg,
+        model_origin: model_origin(config_file.as_deref(), learned.as_ref()),
+        flexure_source: &flexure_source,
+        score: sc.as_ref(),
+        plots: &plot_files,
+    };
+    let path = a.out.join("report.md");
+    std::fs::write(&path, report_md(&report, &res, &verdict))
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    drop(progress);
     let last = res.last();
-    let dph = 180.0 / std::f64::consts::PI * 3600.0;
     println!(
         "calibrated {} ({} s, {:?}) -> {}",
         label,
@@ -243,20 +275,22 @@ pub fn run(a: &Args) -> Result<(), String> {
         a.precision,
         a.out.display()
     );
-    println!(
-        "  gyro bias  (deg/h): {:?} ± {:?}",
-        last.gyro_bias.map(|v| round(v * dph)),
-        last.gyro_bias_sigma.map(|v| round(v * dph))
+    let line = |name: &str, u: Unit, v: [f64; 3], s: [f64; 3]| {
+        let f = |x: [f64; 3]| x.map(|x| sig3(x * u.scale)).join(", ");
+        println!("  {name:<13} ({}): [{}] ± [{}]", u.name, f(v), f(s));
+    };
+    line("gyro bias", GYRO_BIAS, last.gyro_bias, last.gyro_bias_sigma);
+    line(
+        "accel bias",
+        ACCEL_BIAS,
+        last.accel_bias,
+        last.accel_bias_sigma,
     );
-    println!(
-        "  accel bias (mg):    {:?} ± {:?}",
-        last.accel_bias.map(|v| round(v / 9.806_65e-3)),
-        last.accel_bias_sigma.map(|v| round(v / 9.806_65e-3))
-    );
-    println!(
-        "  misalignment (deg): {:?} ± {:?}",
-        last.misalignment.map(|v| round(v.to_degrees())),
-        last.misalignment_sigma.map(|v| round(v.to_degrees()))
+    line(
+        "misalignment",
+        ANGLE,
+        last.misalignment,
+        last.misalignment_sigma,
     );
     println!(
         "  NIS mean {:.3}, gated {}",
@@ -264,14 +298,20 @@ pub fn run(a: &Args) -> Result<(), String> {
         res.innovations.iter().filter(|i| !i.accepted).count()
     );
     if let Some(s) = sc {
+        let f = |x: [f64; 3], u: Unit| x.map(|x| sig3(x * u.scale)).join(", ");
         println!(
-            "  errors: gyro bias {:?} deg/h, accel bias {:?} mg, NEES {:.2}",
-            s.gyro_bias.map(|v| round(v * dph)),
-            s.accel_bias.map(|v| round(v / 9.806_65e-3)),
+            "  errors: gyro bias [{}] {}, accel bias [{}] {}, misalignment [{}] {}, NEES {:.2}",
+            f(s.gyro_bias, GYRO_BIAS),
+            GYRO_BIAS.name,
+            f(s.accel_bias, ACCEL_BIAS),
+            ACCEL_BIAS.name,
+            f(s.misalignment, ANGLE),
+            ANGLE.name,
             s.nees_mean
         );
     }
-    Ok(())
+    println!("  report: {}", path.display());
+    verdict.conclude()
 }
 
 /// Adds the learned model (`learned_model`) to a `summary.json` document.
@@ -294,10 +334,20 @@ pub fn write_model_toml(out: &Path, l: &Learned) -> Result<(), String> {
     Ok(())
 }
 
-fn round(v: f64) -> f64 {
-    if v == 0.0 || !v.is_finite() {
-        return v;
+/// Where the model of a run came from, in words: the configuration file, or learned
+/// from the recording (adopted or not) from its start.
+pub fn model_origin(config_file: Option<&Path>, learned: Option<&Learned>) -> String {
+    match (learned, config_file) {
+        (Some(l), _) => format!(
+            "learned from the recording starting from the {} ({})",
+            l.start_origin,
+            if l.adopted {
+                "adopted"
+            } else {
+                "not adopted: the start is kept"
+            }
+        ),
+        (None, Some(p)) => format!("the configuration file `{}`", p.display()),
+        (None, None) => "the built-in default".to_string(),
     }
-    let mag = 10f64.powi(3 - v.abs().log10().ceil() as i32);
-    (v * mag).round() / mag
 }

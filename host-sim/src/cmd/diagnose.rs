@@ -38,9 +38,12 @@ pub struct Args {
 
 /// Runs `flexcal diagnose`.
 pub fn run(a: &Args) -> Result<(), String> {
+    let progress = crate::cmd::progress::Progress::start("reading the recording");
     let rec = read_recording(&a.rec_dir).map_err(|e| e.to_string())?;
+    progress.phase("preparing the declared model");
     // The declared model: no switches (the search adds the effects).
-    let cfg = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &ModelArgs::default())?.cfg;
+    let prepared = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &ModelArgs::default())?;
+    let cfg = prepared.cfg.clone();
     let candidates = if a.candidates.is_empty() {
         Effect::ALL.to_vec()
     } else {
@@ -55,11 +58,49 @@ pub fn run(a: &Args) -> Result<(), String> {
         alpha: a.alpha,
         holdout_fraction: a.holdout_fraction,
     };
+    progress.phase(&format!(
+        "searching {} candidates (budget {})",
+        opts.candidates.len(),
+        opts.budget
+    ));
     let d = diagnose(&rec, &cfg, &opts)?;
+    progress.phase("checking and writing the outputs");
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
     let label = a.rec_dir.display().to_string();
     let command: String = std::env::args().collect::<Vec<_>>().join(" ");
-    let doc = report::diagnosis_json(&d, &label, &rec, &command);
+    let mut verdict = crate::verdict::of_calibration(
+        &a.rec_dir,
+        &rec,
+        prepared.config_file.as_deref(),
+        prepared.learned.as_ref(),
+        &d.after.cfg,
+        &d.after.result,
+    );
+    let left: Vec<String> = report::structure(&d.after, opts.alpha, report::master_rate_hz(&rec))
+        .into_iter()
+        .filter(|s| s.rejected)
+        .map(|s| {
+            format!(
+                "{} {}",
+                s.channel,
+                ["x", "y", "z"].get(s.axis).unwrap_or(&"?")
+            )
+        })
+        .collect();
+    if !left.is_empty() {
+        verdict.extend([crate::verdict::Finding::new(
+            crate::verdict::Severity::Warn,
+            "structure_unexplained",
+            format!(
+                "{} channel axes keep structure that no candidate of the vocabulary explains: {}",
+                left.len(),
+                left.join(", ")
+            ),
+        )
+        .num("channels", left.len() as f64)]);
+    }
+    let mut doc = report::diagnosis_json(&d, &label, &rec, &command);
+    verdict.insert_into(&mut doc);
     let text = serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())?;
     let path = a.out.join("diagnosis.json");
     std::fs::write(&path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
@@ -67,20 +108,45 @@ pub fn run(a: &Args) -> Result<(), String> {
     let path = a.out.join("report.md");
     std::fs::write(&path, md).map_err(|e| format!("{}: {e}", path.display()))?;
     report::write_plots(&a.out, &d, &rec).map_err(|e| e.to_string())?;
+    drop(progress);
     println!("diagnosed {label} -> {}", a.out.display());
     if d.found.is_empty() {
         println!("  no effect found");
     }
     for t in &d.found {
+        use crate::report::units::{of_effect_unit, sig3};
+        let u =
+            Effect::from_name(t.effect).map_or(of_effect_unit(""), |e| of_effect_unit(e.unit()));
+        let f = |v: &[f64]| {
+            v.iter()
+                .map(|x| sig3(x * u.scale))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
         println!(
-            "  {}: {:?} ± {:?} (Wald {:.1}, LR {:.1}, threshold {:.1})",
-            t.effect, t.estimate, t.sigma, t.wald, t.likelihood_ratio, t.threshold
+            "  {} ({}): [{}] ± [{}] (Wald {:.1}, LR {:.1}, threshold {:.1})",
+            t.effect,
+            u.name,
+            f(&t.estimate),
+            f(&t.sigma),
+            t.wald,
+            t.likelihood_ratio,
+            t.threshold
         );
     }
-    let left = report::structure(&d.after, opts.alpha, report::master_rate_hz(&rec))
-        .into_iter()
-        .filter(|s| s.rejected)
-        .count();
-    println!("  channels with unexplained structure: {left}");
-    Ok(())
+    for (k, r) in d.rounds.iter().enumerate() {
+        for t in r.tests.iter().filter(|t| t.significant) {
+            println!(
+                "  round {}: {} (Wald {:.1}, LR {:.1}, threshold {:.1}): {}",
+                k + 1,
+                t.effect,
+                t.wald,
+                t.likelihood_ratio,
+                t.threshold,
+                report::decision(t, r)
+            );
+        }
+    }
+    println!("  channels with unexplained structure: {}", left.len());
+    verdict.conclude()
 }

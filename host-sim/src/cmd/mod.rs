@@ -7,6 +7,7 @@ pub mod identify;
 pub mod montecarlo;
 pub mod montecarlo_blind;
 pub mod paper_figures;
+pub mod progress;
 pub mod replay;
 pub mod simulate;
 

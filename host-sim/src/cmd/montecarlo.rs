@@ -147,34 +147,44 @@ pub const NAMES: [&str; 9] = [
     "bgx", "bgy", "bgz", "bax", "bay", "baz", "mux", "muy", "muz",
 ];
 
-/// RMS error over mean σ for each calibrated state (1: the filter's σ is right;
-/// the bound is 1.3), one point per state in the order of `NAMES`.
-pub fn ratio_figure(scenario: &str, agg: &Aggregate) -> Figure {
-    let x: Vec<f64> = (0..NAMES.len()).map(|i| i as f64).collect();
-    let ratio: Vec<f64> = agg
-        .rms
+/// RMS error over mean σ for each calibrated state as a bar chart, one labelled bar per
+/// state in the order of `NAMES` (1: the filter's σ is right; dashed, the verdict's bound
+/// for `runs` runs, `verdict::ensemble::ratio_bound`). A bar is a band from 0 to its
+/// value over [i − 0.4, i + 0.4].
+pub fn ratio_figure(scenario: &str, agg: &Aggregate, runs: usize) -> Figure {
+    let bound = crate::verdict::ensemble::ratio_bound(runs);
+    let bars: Vec<Band> = NAMES
         .iter()
-        .zip(&agg.mean_sigma)
-        .map(|(r, s)| r / s)
+        .enumerate()
+        .map(|(i, name)| {
+            let r = agg.rms[i] / agg.mean_sigma[i];
+            let x = i as f64;
+            Band {
+                name: format!("{name} {r:.2}"),
+                x: vec![x - 0.4, x + 0.4],
+                lo: vec![0.0, 0.0],
+                hi: vec![r, r],
+            }
+        })
         .collect();
+    let x = vec![-0.5, NAMES.len() as f64 - 0.5];
     let line = |name: &str, v: f64| Series {
         name: name.into(),
         x: x.clone(),
         y: vec![v; x.len()],
     };
     Figure {
-        title: format!("Monte Carlo `{scenario}`: RMS error / mean σ per state"),
-        x_label: format!("state: {}", NAMES.join(", ")),
+        title: format!("Monte Carlo `{scenario}` ({runs} runs): RMS error / mean σ per state"),
+        x_label: format!("state 0..8: {}", NAMES.join(", ")),
         panels: vec![Panel {
             title: "RMS final error over the filter's mean σ".into(),
             y_label: "ratio".into(),
-            series: vec![Series {
-                name: "RMS / mean σ".into(),
-                x: x.clone(),
-                y: ratio,
-            }],
-            bands: vec![],
-            dashed: vec![line("1 (consistent)", 1.0), line("1.3 (bound)", 1.3)],
+            series: vec![],
+            bands: bars,
+            dashed: vec![
+                line("1 (consistent)", 1.0),
+                line(&format!("{bound:.2} (bound for {runs} runs)"), bound),
+            ],
         }],
     }
 }
@@ -182,7 +192,7 @@ pub fn ratio_figure(scenario: &str, agg: &Aggregate) -> Figure {
 /// Runs `flexcal montecarlo`.
 pub fn run(a: &Args) -> Result<(), String> {
     if a.runs == 0 {
-        return Err("`--runs` must be at least 1".into());
+        return Err("--runs must be at least 1".into());
     }
     if a.scenario.blind {
         return super::montecarlo_blind::run(a);
@@ -225,6 +235,15 @@ pub fn run(a: &Args) -> Result<(), String> {
         "nis_mean": runs.iter().map(|r| r.nis).sum::<f64>() / runs.len().max(1) as f64,
         "per_run": runs.iter().map(|r| json!({"seed": r.seed, "nees": r.nees, "nis_mean": r.nis, "error": r.error, "sigma": r.sigma})).collect::<Vec<_>>(),
     });
+    let ratios: Vec<(&str, f64)> = (0..9)
+        .map(|i| (NAMES[i], agg.rms[i] / agg.mean_sigma[i]))
+        .collect();
+    let seeds_nees: Vec<(u64, f64)> = runs.iter().map(|r| (r.seed, r.nees)).collect();
+    let verdict = crate::verdict::Verdict {
+        findings: crate::verdict::ensemble::check(&seeds_nees, agg.nees_band, &ratios),
+    };
+    let mut doc = doc;
+    verdict.insert_into(&mut doc);
     let path = a.out.join("montecarlo.json");
     std::fs::write(
         &path,
@@ -232,6 +251,7 @@ pub fn run(a: &Args) -> Result<(), String> {
     )
     .map_err(|e| format!("{}: {e}", path.display()))?;
     let x: Vec<f64> = runs.iter().map(|r| r.seed as f64).collect();
+    let single = crate::verdict::ensemble::single_run_band();
     let fig = Figure {
         title: format!(
             "Monte Carlo `{}`: final NEES of the 9 calibrated states per run",
@@ -240,27 +260,31 @@ pub fn run(a: &Args) -> Result<(), String> {
         x_label: "seed".into(),
         panels: vec![Panel {
             title: format!(
-                "mean NEES {:.2}, 95% band of the mean [{:.2}, {:.2}]",
-                agg.nees_mean, agg.nees_band[0], agg.nees_band[1]
+                "single runs against the single-run χ²(9) 99% band [{:.2}, {:.2}]; mean {:.2}, 95% band of the mean [{:.2}, {:.2}]",
+                single[0], single[1], agg.nees_mean, agg.nees_band[0], agg.nees_band[1]
             ),
             y_label: "NEES".into(),
             series: vec![Series {
-                name: "NEES".into(),
+                name: "NEES of one run".into(),
                 x: x.clone(),
                 y: runs.iter().map(|r| r.nees).collect(),
             }],
             bands: vec![Band {
-                name: "band of the mean".into(),
+                name: "single-run 99% band".into(),
                 x: x.clone(),
-                lo: vec![agg.nees_band[0]; x.len()],
-                hi: vec![agg.nees_band[1]; x.len()],
+                lo: vec![single[0]; x.len()],
+                hi: vec![single[1]; x.len()],
             }],
-            dashed: vec![],
+            dashed: vec![Series {
+                name: format!("mean {:.2}", agg.nees_mean),
+                x: x.clone(),
+                y: vec![agg.nees_mean; x.len()],
+            }],
         }],
     };
     fig.write(&a.out.join("nees.svg"))
         .map_err(|e| e.to_string())?;
-    ratio_figure(&sc.name, &agg)
+    ratio_figure(&sc.name, &agg, runs.len())
         .write(&a.out.join("rms_over_sigma.svg"))
         .map_err(|e| e.to_string())?;
     println!(
@@ -270,13 +294,21 @@ pub fn run(a: &Args) -> Result<(), String> {
         sc.duration_s,
         a.precision
     );
-    println!("  state   rms error     mean sigma    ratio");
-    for ((name, rms), sigma) in NAMES.iter().zip(agg.rms).zip(agg.mean_sigma) {
-        println!("  {name:5} {rms:12.4e}  {sigma:12.4e}  {:6.3}", rms / sigma);
+    println!("  state  unit    rms error   mean sigma   ratio");
+    for (i, ((name, rms), sigma)) in NAMES.iter().zip(agg.rms).zip(agg.mean_sigma).enumerate() {
+        use crate::report::units::{sig3, ACCEL_BIAS, ANGLE, GYRO_BIAS};
+        let u = [GYRO_BIAS, ACCEL_BIAS, ANGLE][i / 3];
+        println!(
+            "  {name:5}  {:<6} {:>10}   {:>10}   {:6.3}",
+            u.name,
+            sig3(rms * u.scale),
+            sig3(sigma * u.scale),
+            rms / sigma
+        );
     }
     println!(
         "  mean NEES {:.3} (95% band [{:.3}, {:.3}])",
         agg.nees_mean, agg.nees_band[0], agg.nees_band[1]
     );
-    Ok(())
+    verdict.conclude()
 }

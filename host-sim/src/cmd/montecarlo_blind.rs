@@ -182,10 +182,10 @@ pub fn run(a: &Args) -> Result<(), String> {
         serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())? + "\n",
     )
     .map_err(|e| format!("{}: {e}", path.display()))?;
-    ratio_figure("blind, learned model", &agg_l)
+    ratio_figure("blind, learned model", &agg_l, runs.len())
         .write(&a.out.join("rms_over_sigma_learned.svg"))
         .map_err(|e| e.to_string())?;
-    ratio_figure("blind, built-in default", &agg_d)
+    ratio_figure("blind, built-in default", &agg_d, runs.len())
         .write(&a.out.join("rms_over_sigma_default.svg"))
         .map_err(|e| e.to_string())?;
     println!(
@@ -200,10 +200,9 @@ pub fn run(a: &Args) -> Result<(), String> {
         runs.iter().map(|r| r.learn_seconds).sum::<f64>() / runs.len() as f64
     );
     println!("  state   RMS/σ learned   RMS/σ built-in default");
-    for i in 0..9 {
+    for (i, name) in NAMES.iter().enumerate() {
         println!(
-            "  {:5}   {:8.3}        {:8.3}",
-            NAMES[i],
+            "  {name:5}   {:8.3}        {:8.3}",
             agg_l.rms[i] / agg_l.mean_sigma[i],
             agg_d.rms[i] / agg_d.mean_sigma[i]
         );

@@ -562,6 +562,8 @@ pub struct Replayed {
     pub learned: Option<crate::learn::Learned>,
     /// The configuration as resolved (and the flexure model as chosen).
     pub cfg: CalibConfig,
+    /// The configuration file declared, if any.
+    pub config_file: Option<PathBuf>,
     /// Where the flexure model came from.
     pub flexure_source: String,
     /// Frames sent to the board.
@@ -584,6 +586,7 @@ pub fn replay(a: &Args) -> Result<Replayed, String> {
         cfg,
         flexure_source,
         learned,
+        config_file,
     } = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &a.model)?;
     let msgs = stream_messages(&rec, &cfg, a.estimates_every, a.status_every);
     let frames = encode_frames(&msgs)?;
@@ -620,6 +623,7 @@ pub fn replay(a: &Args) -> Result<Replayed, String> {
         rec,
         learned,
         cfg,
+        config_file,
         flexure_source,
         frames_sent: frames.len(),
         qemu,
@@ -629,12 +633,15 @@ pub fn replay(a: &Args) -> Result<Replayed, String> {
 
 /// Runs `flexcal replay`.
 pub fn run(a: &Args) -> Result<(), String> {
+    let progress = crate::cmd::progress::Progress::start("replaying through the firmware in QEMU");
     let r = replay(a)?;
+    drop(progress);
     write_outputs(a, &r)
 }
 
 /// Writes `summary.json` and `estimates.csv` of a replay into `a.out` and prints the
-/// summary line; fails if frames were lost on the way to the board.
+/// summary line and the verdict; fails when the verdict is FAIL (frames lost on the
+/// way to the board are a FAIL).
 pub fn write_outputs(a: &Args, r: &Replayed) -> Result<(), String> {
     let (rec, cfg, flexure_source, qemu, res) =
         (&r.rec, &r.cfg, &r.flexure_source, &r.qemu, &r.result);
@@ -684,7 +691,25 @@ pub fn write_outputs(a: &Args, r: &Replayed) -> Result<(), String> {
             }),
         );
     }
-    let doc = crate::cmd::calibrate::with_learned(doc, r.learned.as_ref());
+    let mut doc = crate::cmd::calibrate::with_learned(doc, r.learned.as_ref());
+    let mut verdict = crate::verdict::of_calibration(
+        &a.rec_dir,
+        rec,
+        r.config_file.as_deref(),
+        r.learned.as_ref(),
+        cfg,
+        res,
+    );
+    if lost != 0 {
+        verdict.extend([crate::verdict::Finding::new(
+            crate::verdict::Severity::Fail,
+            "frames_lost",
+            format!("{lost} of {sent_frames} frames were lost on the way to the board"),
+        )
+        .num("frames_lost", f64::from(lost))
+        .num("frames_sent", f64::from(sent_frames))]);
+    }
+    verdict.insert_into(&mut doc);
     if let Some(l) = &r.learned {
         crate::cmd::calibrate::write_model_toml(&a.out, l)?;
     }
@@ -693,6 +718,29 @@ pub fn write_outputs(a: &Args, r: &Replayed) -> Result<(), String> {
     std::fs::write(&path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
     summary::write_estimates_csv(&a.out.join("estimates.csv"), &res.rows)
         .map_err(|e| e.to_string())?;
+    let label = a.rec_dir.display().to_string();
+    let plot_files =
+        crate::report::plots::write_estimate_plots(&a.out, &label, &res.rows, rec.truth.as_ref())
+            .map_err(|e| e.to_string())?;
+    let report = crate::report::markdown::ReportInput {
+        label: &label,
+        rec,
+        duration_s: duration,
+        cfg,
+        model_origin: crate::cmd::calibrate::model_origin(
+            r.config_file.as_deref(),
+            r.learned.as_ref(),
+        ),
+        flexure_source,
+        score: None,
+        plots: &plot_files,
+    };
+    let path = a.out.join("report.md");
+    std::fs::write(
+        &path,
+        crate::report::markdown::report_md(&report, res, &verdict),
+    )
+    .map_err(|e| format!("{}: {e}", path.display()))?;
     println!(
         "replayed {} ({} s) in QEMU: {} frames sent, {} received by the board, {} estimates back ({:.1} s) -> {}",
         a.rec_dir.display(),
@@ -712,10 +760,7 @@ pub fn write_outputs(a: &Args, r: &Replayed) -> Result<(), String> {
             r.sigma
         );
     }
-    if lost != 0 {
-        return Err(format!("{lost} frames were lost on the way to the board"));
-    }
-    Ok(())
+    verdict.conclude()
 }
 
 #[cfg(test)]

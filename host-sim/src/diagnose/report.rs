@@ -3,7 +3,7 @@
 
 use super::evaluate::ModelEval;
 use super::spectrum::{autocorrelation, welch};
-use super::{CandidateTest, Diagnosis};
+use super::{CandidateTest, Diagnosis, Round};
 use crate::calib::run::{Innovation, CHANNELS};
 use crate::calib::score::score;
 use crate::cmd::TOOL_VERSION;
@@ -193,8 +193,9 @@ pub fn diagnosis_json(d: &Diagnosis, rec_label: &str, rec: &Recording, command: 
             "alpha": d.options.alpha,
             "tests": d.options.budget * d.options.candidates.len(),
             "rule": "a candidate is significant when the Wald statistic of its block and the likelihood ratio both exceed the chi-square(dof) quantile at alpha / tests; of the significant, the one whose likelihood ratio exceeds its threshold most and whose held-out likelihood ratio is positive is added",
-            "rounds": d.rounds,
+            "rounds": rounds_json(d),
         },
+        "supported_not_adopted": supported_not_adopted(d),
         "recommended_config": {
             "effects": d.after.cfg.effects,
             "initial_delay_s": d.after.cfg.initial_delay_s,
@@ -203,6 +204,129 @@ pub fn diagnosis_json(d: &Diagnosis, rec_label: &str, rec: &Recording, command: 
             "rate_noise_radps": d.after.cfg.rate_noise_radps,
         },
     })
+}
+
+/// What the search decided about candidate `t` of `round` and why, in one sentence:
+/// which test a non-significant candidate failed; for a significant one, adopted, or
+/// rejected by the held-out check or the explained-structure check, or ranked below
+/// the adopted one. The same rules as `crate::diagnose::diagnose`, read back from the
+/// statistics it recorded.
+pub fn decision(t: &CandidateTest, round: &Round) -> String {
+    if let Some(e) = &t.error {
+        return format!("not tested: {e}");
+    }
+    if !t.significant {
+        let mut why = Vec::new();
+        if t.wald.is_nan() || t.wald <= t.threshold {
+            why.push(format!("Wald {} ≤ {}", fmt_g(t.wald), fmt_g(t.threshold)));
+        }
+        if t.likelihood_ratio.is_nan() || t.likelihood_ratio <= t.threshold {
+            why.push(format!(
+                "likelihood ratio {} ≤ {}",
+                fmt_g(t.likelihood_ratio),
+                fmt_g(t.threshold)
+            ));
+        }
+        if let Some(e) = Effect::from_name(t.effect) {
+            if !t.estimate.iter().any(|v| v.abs() > e.resolution_floor()) {
+                why.push(format!(
+                    "estimate below its resolution floor {}",
+                    fmt_g(e.resolution_floor())
+                ));
+            }
+            let limit = crate::diagnose::PLAUSIBLE_PRIORS * e.default_prior_sigma();
+            if t.estimate.iter().any(|v| v.abs() > limit) {
+                why.push(format!(
+                    "implausible: beyond {} prior σ ({})",
+                    crate::diagnose::PLAUSIBLE_PRIORS,
+                    fmt_g(limit)
+                ));
+            }
+        }
+        return format!("not significant: {}", why.join("; "));
+    }
+    if round.added == Some(t.effect) {
+        return "adopted: significant, predicts the held-out part better and explains the structure".into();
+    }
+    let gain = t.holdout_likelihood_ratio.unwrap_or(f64::NAN);
+    if gain.is_nan() || gain <= 0.0 {
+        return format!(
+            "rejected: predicts the held-out part worse (held-out likelihood ratio {})",
+            fmt_g(gain)
+        );
+    }
+    let limit = crate::diagnose::EXPLAINED_FRACTION_LEFT * round.structure;
+    if round.structure > 0.0 && t.structure_after > limit {
+        return format!(
+            "rejected: leaves {:.0}% of the structure ({} of {}; at most {:.0}% allowed)",
+            100.0 * t.structure_after / round.structure,
+            fmt_g(t.structure_after),
+            fmt_g(round.structure),
+            100.0 * crate::diagnose::EXPLAINED_FRACTION_LEFT
+        );
+    }
+    match round.added {
+        Some(a) => format!("not adopted: `{a}` gains more likelihood over its threshold"),
+        None => "not adopted".into(),
+    }
+}
+
+/// Significant candidates of the last round that predict the held-out part better but
+/// were not adopted, best likelihood gain first, with the configuration lines that would
+/// carry each: what a reader may still want to try.
+pub fn supported_not_adopted(d: &Diagnosis) -> Vec<Value> {
+    let Some(round) = d.rounds.last() else {
+        return Vec::new();
+    };
+    let mut v: Vec<&CandidateTest> = round
+        .tests
+        .iter()
+        .filter(|t| {
+            t.significant
+                && round.added != Some(t.effect)
+                && t.holdout_likelihood_ratio.is_some_and(|g| g > 0.0)
+        })
+        .collect();
+    v.sort_by(|a, b| {
+        (b.likelihood_ratio - b.threshold).total_cmp(&(a.likelihood_ratio - a.threshold))
+    });
+    v.into_iter()
+        .map(|t| {
+            let mut effects: Vec<&str> = d.after.cfg.effects.iter().map(String::as_str).collect();
+            effects.push(t.effect);
+            let mut cfg = json!({ "effects": effects });
+            if t.effect == Effect::TimeDelay.name() {
+                if let (Some(obj), Some(delay)) = (cfg.as_object_mut(), t.estimate.first()) {
+                    obj.insert("initial_delay_s".into(), json!(delay));
+                }
+            }
+            json!({
+                "effect": t.effect,
+                "estimate": t.estimate,
+                "sigma": t.sigma,
+                "holdout_likelihood_ratio": t.holdout_likelihood_ratio,
+                "decision": decision(t, round),
+                "config": cfg,
+            })
+        })
+        .collect()
+}
+
+/// The search rounds as recorded, each test with its `decision`.
+fn rounds_json(d: &Diagnosis) -> Value {
+    let mut v = serde_json::to_value(&d.rounds).unwrap_or(Value::Null);
+    if let Some(rounds) = v.as_array_mut() {
+        for (rv, r) in rounds.iter_mut().zip(&d.rounds) {
+            if let Some(tests) = rv.get_mut("tests").and_then(Value::as_array_mut) {
+                for (tv, t) in tests.iter_mut().zip(&r.tests) {
+                    if let Some(obj) = tv.as_object_mut() {
+                        obj.insert("decision".into(), json!(decision(t, r)));
+                    }
+                }
+            }
+        }
+    }
+    v
 }
 
 fn fmt_g(v: f64) -> String {
@@ -256,8 +380,19 @@ pub fn report_md(d: &Diagnosis, rec_label: &str, rec: &Recording, command: &str)
         let _ = writeln!(s);
     }
     let _ = writeln!(s, "## Effects found\n");
-    if d.found.is_empty() {
+    let significant = d
+        .rounds
+        .iter()
+        .flat_map(|r| &r.tests)
+        .filter(|t| t.significant)
+        .count();
+    if d.found.is_empty() && significant == 0 {
         let _ = writeln!(s, "None: no candidate is significant.\n");
+    } else if d.found.is_empty() {
+        let _ = writeln!(
+            s,
+            "None adopted: {significant} candidate(s) are significant, and each was rejected for the reason given in its row of the search below.\n"
+        );
     } else {
         let _ = writeln!(
             s,
@@ -290,6 +425,40 @@ pub fn report_md(d: &Diagnosis, rec_label: &str, rec: &Recording, command: &str)
         }
         let _ = writeln!(s);
     }
+    let supported = supported_not_adopted(d);
+    if !supported.is_empty() {
+        let _ = writeln!(
+            s,
+            "## Supported by the held-out check, not adopted\n\nThese significant candidates predict the held-out part better but were not adopted (the decision says why); to carry one anyway, add its configuration lines:\n\n| effect | estimate ± σ | held-out likelihood ratio | configuration |\n|---|---|---|---|"
+        );
+        for v in &supported {
+            let nums = |k: &str| -> Vec<f64> {
+                v[k].as_array()
+                    .map(|a| a.iter().filter_map(Value::as_f64).collect())
+                    .unwrap_or_default()
+            };
+            let cfg = v["config"]
+                .as_object()
+                .map(|o| {
+                    o.iter()
+                        .map(|(k, x)| format!("`{k} = {x}`"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                })
+                .unwrap_or_default();
+            let _ = writeln!(
+                s,
+                "| `{}` | {} ± {} | {} | {cfg} |",
+                v["effect"].as_str().unwrap_or("?"),
+                fmt_vec(&nums("estimate")),
+                fmt_vec(&nums("sigma")),
+                v["holdout_likelihood_ratio"]
+                    .as_f64()
+                    .map_or("–".into(), fmt_g)
+            );
+        }
+        let _ = writeln!(s);
+    }
     let _ = writeln!(s, "## Search\n");
     for (k, r) in d.rounds.iter().enumerate() {
         let _ = writeln!(
@@ -300,12 +469,15 @@ pub fn report_md(d: &Diagnosis, rec_label: &str, rec: &Recording, command: &str)
                 .iter()
                 .map(|m| format!(" + `{m}`"))
                 .collect::<String>(),
-            r.added
-                .map_or("nothing significant".to_string(), |a| format!("adds `{a}`"))
+            match (r.added, r.tests.iter().filter(|t| t.significant).count()) {
+                (Some(a), _) => format!("adds `{a}`"),
+                (None, 0) => "nothing significant".to_string(),
+                (None, n) => format!("{n} significant, none adopted (decisions below)"),
+            }
         );
         let _ = writeln!(
             s,
-            "Structure statistic of this round's model: {}.\n\n| candidate | k | estimate ± σ | Wald | likelihood ratio | threshold | significant | structure left | held-out likelihood ratio |\n|---|---|---|---|---|---|---|---|---|",
+            "Structure statistic of this round's model: {}.\n\n| candidate | k | estimate ± σ | Wald | likelihood ratio | threshold | structure left | held-out likelihood ratio | decision |\n|---|---|---|---|---|---|---|---|---|",
             fmt_g(r.structure)
         );
         for t in &r.tests {
@@ -319,14 +491,9 @@ pub fn report_md(d: &Diagnosis, rec_label: &str, rec: &Recording, command: &str)
                 fmt_g(t.wald),
                 fmt_g(t.likelihood_ratio),
                 fmt_g(t.threshold),
-                match &t.error {
-                    Some(e) => format!("not tested: {e}"),
-                    None => if t.significant { "yes" } else { "no" }.to_string(),
-                },
                 fmt_g(t.structure_after),
-                t.holdout_likelihood_ratio.map_or("–".to_string(), |h| {
-                    format!("{}{}", fmt_g(h), if h > 0.0 { "" } else { " (rejected)" })
-                })
+                t.holdout_likelihood_ratio.map_or("–".to_string(), fmt_g),
+                decision(t, r)
             );
         }
         let _ = writeln!(s);

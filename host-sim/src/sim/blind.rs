@@ -254,8 +254,9 @@ mod tests {
         let arw: Vec<f64> = draws.iter().map(|s| s.slave_imu.gyro_arw_deg_rh).collect();
         let lo = arw.iter().cloned().fold(f64::INFINITY, f64::min);
         let hi = arw.iter().cloned().fold(0.0, f64::max);
-        assert!(lo >= 0.1 * DEFAULT_GYRO_ARW_DEG_RH && lo < 0.2 * DEFAULT_GYRO_ARW_DEG_RH);
-        assert!(hi <= 10.0 * DEFAULT_GYRO_ARW_DEG_RH && hi > 5.0 * DEFAULT_GYRO_ARW_DEG_RH);
+        let d = DEFAULT_GYRO_ARW_DEG_RH;
+        assert!((0.1 * d..0.2 * d).contains(&lo), "smallest ARW {lo}");
+        assert!((5.0 * d..=10.0 * d).contains(&hi), "largest ARW {hi}");
         let kinds = |f: &dyn Fn(&MasterSpec) -> bool| draws.iter().filter(|s| f(&s.master)).count();
         let noiseless = kinds(&|m| m.velocity_noise_mps == 0.0 && m.smooth_error.is_none());
         let smooth = kinds(&|m| m.smooth_error.is_some());

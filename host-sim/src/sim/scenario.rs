@@ -290,9 +290,8 @@ impl Scenario {
         }
         if let Some(e) = &self.master.smooth_error {
             let ok = |v: f64| v.is_finite() && v >= 0.0;
-            if !(ok(e.attitude_arcsec) && ok(e.velocity_mps))
-                || !(e.correlation_s.is_finite() && e.correlation_s > 0.0)
-            {
+            let tau_ok = e.correlation_s.is_finite() && e.correlation_s > 0.0;
+            if !(ok(e.attitude_arcsec) && ok(e.velocity_mps) && tau_ok) {
                 return Err(format!(
                     "`master.smooth_error` needs σ ≥ 0 and a positive correlation time, got {e:?}"
                 ));

@@ -1,0 +1,339 @@
+//! Units and clocks checked against the motion itself: the slave's specific force
+//! against gravity, the slave's and the master's rotation against the master's
+//! attitude, and the two clocks against each other by cross-correlating the body
+//! rates. A recording in the wrong units (degrees, rates written as increments, a
+//! master rate in °/s) or with a clock off by seconds parses; these catch it.
+//! Thresholds: `docs/verdict.md`.
+
+use super::input::median;
+use super::{g3, Finding, Severity};
+use crate::recording::{Recording, MASTER_FILE, SLAVE_FILE};
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+
+/// Standard gravity (m/s²).
+const G0: f64 = 9.806_65;
+/// Window of the scale checks (s).
+const WINDOW_S: f64 = 1.0;
+/// A scale (measured over expected) outside this range is a unit error, not a sensor's.
+pub const SCALE_RANGE: [f64; 2] = [0.5, 2.0];
+/// A window is used for a rotation scale when the master turned at least this much (rad):
+/// 140 times the Earth's rotation in it, 10 times a 200 °/h MEMS bias.
+const MIN_ROTATION_RAD: f64 = 0.01;
+/// Windows needed before a scale is judged.
+const MIN_WINDOWS: usize = 5;
+/// Largest clock offset searched (s).
+pub const MAX_OFFSET_S: f64 = 5.0;
+/// Correlation of the body rates needed to trust the offset found.
+const MIN_CORRELATION: f64 = 0.5;
+/// An offset at least this large (s) is a WARN (two steps of the 0.1 s search grid).
+pub const OFFSET_WARN_S: f64 = 0.2;
+/// At least this large (s), a FAIL.
+pub const OFFSET_FAIL_S: f64 = 1.0;
+
+/// Every motion finding of a recording.
+pub fn check(rec: &Recording) -> Vec<Finding> {
+    let slave = Slave::new(rec);
+    let mut out = Vec::new();
+    out.extend(accel_scale(rec, &slave));
+    out.extend(gyro_scale(rec, &slave));
+    out.extend(master_rate_scale(rec));
+    out.extend(time_offset(rec, &slave));
+    out
+}
+
+/// The slave's increments as running sums, to sum any window in O(log n).
+struct Slave {
+    t: Vec<f64>,
+    dtheta: Vec<Vector3<f64>>,
+    dv: Vec<Vector3<f64>>,
+}
+
+impl Slave {
+    fn new(rec: &Recording) -> Self {
+        let n = rec.imu.len();
+        let mut t = Vec::with_capacity(n + 1);
+        let mut dtheta = Vec::with_capacity(n + 1);
+        let mut dv = Vec::with_capacity(n + 1);
+        t.push(rec.imu_t0);
+        dtheta.push(Vector3::zeros());
+        dv.push(Vector3::zeros());
+        for s in &rec.imu {
+            t.push(s.t);
+            dtheta.push(dtheta[dtheta.len() - 1] + Vector3::from(s.dtheta_rad));
+            dv.push(dv[dv.len() - 1] + Vector3::from(s.dv_mps));
+        }
+        Self { t, dtheta, dv }
+    }
+
+    /// The sample boundaries nearest to `[a, b]`, or `None` outside the span.
+    fn span(&self, a: f64, b: f64) -> Option<(usize, usize)> {
+        let last = *self.t.last()?;
+        if a < self.t[0] || b > last {
+            return None;
+        }
+        let i = self.t.partition_point(|&t| t < a);
+        let j = self.t.partition_point(|&t| t < b);
+        (j > i).then_some((i, j))
+    }
+
+    /// Sums of the angle and velocity increments over `[a, b]` and the time they cover.
+    fn sum(&self, a: f64, b: f64) -> Option<(Vector3<f64>, Vector3<f64>, f64)> {
+        let (i, j) = self.span(a, b)?;
+        Some((
+            self.dtheta[j] - self.dtheta[i],
+            self.dv[j] - self.dv[i],
+            self.t[j] - self.t[i],
+        ))
+    }
+}
+
+fn quat(q: &[f64; 4]) -> UnitQuaternion<f64> {
+    UnitQuaternion::new_normalize(Quaternion::new(q[0], q[1], q[2], q[3]))
+}
+
+/// The master's message at or just after `t`.
+fn master_index(rec: &Recording, t: f64) -> Option<usize> {
+    let k = rec.master.partition_point(|m| m.t < t);
+    (k < rec.master.len()).then_some(k)
+}
+
+/// The master's rotation over `[a, b]` as a rotation vector in its body frame at `a`.
+fn master_rotation(rec: &Recording, a: f64, b: f64) -> Option<Vector3<f64>> {
+    let (i, j) = (master_index(rec, a)?, master_index(rec, b)?);
+    (j > i).then(|| {
+        (quat(&rec.master[i].q_bm_n).inverse() * quat(&rec.master[j].q_bm_n)).scaled_axis()
+    })
+}
+
+/// Windows of `WINDOW_S` over `[a, b]`.
+fn windows(a: f64, b: f64) -> impl Iterator<Item = (f64, f64)> {
+    let n = ((b - a) / WINDOW_S).floor().max(0.0) as usize;
+    (0..n).map(move |k| (a + k as f64 * WINDOW_S, a + (k + 1) as f64 * WINDOW_S))
+}
+
+/// What a scale far from 1 most likely means, from its size.
+fn reading(scale: f64, rate_hz: f64) -> String {
+    let near = |x: f64| (scale / x).ln().abs() < 0.3;
+    if near(rate_hz) {
+        format!(
+            "about the sample rate ({} Hz): rates written as increments?",
+            g3(rate_hz)
+        )
+    } else if near(1.0 / rate_hz) {
+        "about one sample period: increments written as rates?".to_string()
+    } else if near(180.0 / std::f64::consts::PI) {
+        "about 180/π: degrees written as radians?".to_string()
+    } else if near(std::f64::consts::PI / 180.0) {
+        "about π/180: radians where degrees were meant?".to_string()
+    } else {
+        "a unit error".to_string()
+    }
+}
+
+fn scale_finding(
+    code: &'static str,
+    what: String,
+    at: &str,
+    scale: f64,
+    windows: usize,
+) -> Finding {
+    Finding::new(Severity::Fail, code, what)
+        .at(at.to_string())
+        .num("scale", scale)
+        .num("windows", windows as f64)
+        .num("range_lo", SCALE_RANGE[0])
+        .num("range_hi", SCALE_RANGE[1])
+}
+
+fn outside(scale: f64) -> bool {
+    !(SCALE_RANGE[0]..=SCALE_RANGE[1]).contains(&scale)
+}
+
+/// The slave's specific force over 1 s windows: its median magnitude is gravity's
+/// (within the vehicle's own accelerations) on any body not in free fall.
+fn accel_scale(rec: &Recording, slave: &Slave) -> Option<Finding> {
+    let (a, b) = (slave.t[0], *slave.t.last()?);
+    let f: Vec<f64> = windows(a, b)
+        .filter_map(|(x, y)| slave.sum(x, y))
+        .map(|(_, dv, dt)| dv.norm() / dt)
+        .collect();
+    if f.len() < MIN_WINDOWS {
+        return None;
+    }
+    let n = f.len();
+    let scale = median(f) / G0;
+    outside(scale).then(|| {
+        scale_finding(
+            "slave_accel_scale",
+            format!(
+                "the slave's specific force is {} g in the median of {n} one-second windows, where gravity alone gives 1 g: {}",
+                g3(scale),
+                reading(scale, rec.meta.slave_rate_hz)
+            ),
+            SLAVE_FILE,
+            scale,
+            n,
+        )
+    })
+}
+
+/// The slave's rotation over 1 s windows against the master's (the misalignment does
+/// not change a rotation's angle).
+fn gyro_scale(rec: &Recording, slave: &Slave) -> Option<Finding> {
+    let (a, b) = (
+        slave.t[0].max(rec.master.first()?.t),
+        slave.t.last()?.min(rec.master.last()?.t),
+    );
+    let r: Vec<f64> = windows(a, b)
+        .filter_map(|(x, y)| {
+            let m = master_rotation(rec, x, y)?.norm();
+            let (dth, _, _) = slave.sum(x, y)?;
+            (m >= MIN_ROTATION_RAD).then(|| dth.norm() / m)
+        })
+        .collect();
+    if r.len() < MIN_WINDOWS {
+        return None;
+    }
+    let n = r.len();
+    let scale = median(r);
+    outside(scale).then(|| {
+        scale_finding(
+            "slave_gyro_scale",
+            format!(
+                "the slave's angle increments add up to {} times the master's rotation (median of {n} one-second windows where the master turned ≥ {MIN_ROTATION_RAD} rad): {}",
+                g3(scale),
+                reading(scale, rec.meta.slave_rate_hz)
+            ),
+            SLAVE_FILE,
+            scale,
+            n,
+        )
+    })
+}
+
+/// The master's own angular rate, integrated over 1 s windows, against its attitude.
+fn master_rate_scale(rec: &Recording) -> Option<Finding> {
+    if !rec.master_has_rate() {
+        return None;
+    }
+    let (a, b) = (rec.master.first()?.t, rec.master.last()?.t);
+    let r: Vec<f64> = windows(a, b)
+        .filter_map(|(x, y)| {
+            let (i, j) = (master_index(rec, x)?, master_index(rec, y)?);
+            let m = master_rotation(rec, x, y)?.norm();
+            let mut integral = Vector3::zeros();
+            for k in i + 1..=j {
+                let w = rec.master[k].omega_ib_bm_radps?;
+                integral += Vector3::from(w) * (rec.master[k].t - rec.master[k - 1].t);
+            }
+            (m >= MIN_ROTATION_RAD).then(|| integral.norm() / m)
+        })
+        .collect();
+    if r.len() < MIN_WINDOWS {
+        return None;
+    }
+    let n = r.len();
+    let scale = median(r);
+    outside(scale).then(|| {
+        scale_finding(
+            "master_rate_scale",
+            format!(
+                "the master's rate `wx,wy,wz` integrates to {} times the rotation of its own attitude (median of {n} one-second windows): {} (recording-v1 wants rad/s)",
+                g3(scale),
+                reading(scale, rec.meta.master_rate_hz)
+            ),
+            MASTER_FILE,
+            scale,
+            n,
+        )
+    })
+}
+
+/// The clock offset that best aligns the master's body rate (from its attitude) with
+/// the slave's (from its increments), with its correlation, searched over
+/// ±`MAX_OFFSET_S` on a grid of the master's period (at least 0.1 s). Positive: the
+/// master's time tags are late.
+fn best_offset(rec: &Recording, slave: &Slave) -> Option<(f64, f64)> {
+    let dt = median(rec.master.windows(2).map(|w| w[1].t - w[0].t).collect());
+    let h = dt.max(0.1);
+    let (a, b) = (rec.master.first()?.t, rec.master.last()?.t);
+    let n = ((b - a) / h).floor().max(0.0) as usize;
+    let master: Vec<(f64, Vector3<f64>)> = (0..n)
+        .filter_map(|k| {
+            let x = a + k as f64 * h;
+            master_rotation(rec, x, x + h).map(|r| (x, r / h))
+        })
+        .collect();
+    if master.len() < 20 {
+        return None;
+    }
+    let lags = (MAX_OFFSET_S / h).round() as i64;
+    let mut best: Option<(f64, f64)> = None;
+    for l in -lags..=lags {
+        let lag = l as f64 * h;
+        let pairs: Vec<(Vector3<f64>, Vector3<f64>)> = master
+            .iter()
+            .filter_map(|(x, m)| {
+                let (dth, _, cover) = slave.sum(x + lag, x + lag + h)?;
+                (cover > 0.0).then(|| (*m, dth / cover))
+            })
+            .collect();
+        if pairs.len() < 20 {
+            continue;
+        }
+        let k = pairs.len() as f64;
+        let mm = pairs.iter().map(|p| p.0).sum::<Vector3<f64>>() / k;
+        let sm = pairs.iter().map(|p| p.1).sum::<Vector3<f64>>() / k;
+        let (mut c, mut vm, mut vs) = (0.0, 0.0, 0.0);
+        for (m, s) in &pairs {
+            let (dm, ds) = (m - mm, s - sm);
+            c += dm.dot(&ds);
+            vm += dm.norm_squared();
+            vs += ds.norm_squared();
+        }
+        let r = c / (vm * vs).sqrt();
+        if r.is_finite() && best.is_none_or(|(_, br)| r > br) {
+            best = Some((-lag, r));
+        }
+    }
+    best
+}
+
+fn time_offset(rec: &Recording, slave: &Slave) -> Option<Finding> {
+    let (offset, r) = best_offset(rec, slave)?;
+    if r < MIN_CORRELATION {
+        return Some(
+            Finding::new(
+                Severity::Note,
+                "clock_offset_unchecked",
+                format!(
+                    "the clocks were not compared: the body rates correlate at most {} (≥ {MIN_CORRELATION} needed)",
+                    g3(r)
+                ),
+            )
+            .num("correlation", r),
+        );
+    }
+    let sev = if offset.abs() >= OFFSET_FAIL_S {
+        Severity::Fail
+    } else if offset.abs() >= OFFSET_WARN_S {
+        Severity::Warn
+    } else {
+        return None;
+    };
+    Some(
+        Finding::new(
+            sev,
+            "master_time_offset",
+            format!(
+                "the master's time tags are {} s {} the slave's: its body rate matches the slave's best (correlation {}) shifted by that much; recording-v1 puts both on one time base",
+                g3(offset.abs()),
+                if offset > 0.0 { "late on" } else { "early on" },
+                g3(r)
+            ),
+        )
+        .at(MASTER_FILE.to_string())
+        .num("offset_s", offset)
+        .num("correlation", r),
+    )
+}
