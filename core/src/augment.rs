@@ -367,11 +367,29 @@ pub fn add_dynamics<T: Real, const S: usize>(
                 add_block(f, v_row, o, &(c_b_n * nonorthogonality_columns(f_b)))
             }
             Effect::GyroGSensitivity => add_block(f, psi_row, o, &row_major_columns(f_b)),
-            Effect::MasterAttitudeError | Effect::MasterVelocityError => {
-                let decay = -Matrix3::identity() / aug.master_error_correlation_s();
-                add_block(f, o, o, &decay)
+            // Their own decay is exact in Φ (`set_gauss_markov_transition`).
+            Effect::MasterAttitudeError
+            | Effect::MasterVelocityError
+            | Effect::TimeDelay
+            | Effect::LeverArmError
+            | Effect::LeverArmCoupling => {}
+        }
+    }
+}
+
+/// Sets the transition of the Gauss-Markov blocks over a period `t` (s): `e^{−t/τ}` on
+/// their diagonal (they are driven by nothing else).
+pub fn set_gauss_markov_transition<T: Real, const S: usize>(
+    phi: &mut SMatrix<T, S, S>,
+    aug: &Augmentation<T>,
+    t: T,
+) {
+    let decay = (-t / aug.master_error_correlation_s()).exp();
+    for b in aug.blocks().filter(|b| b.effect.is_gauss_markov()) {
+        for k in 0..b.effect.states() {
+            if let Some(e) = phi.get_mut((b.offset + k, b.offset + k)) {
+                *e = decay;
             }
-            Effect::TimeDelay | Effect::LeverArmError | Effect::LeverArmCoupling => {}
         }
     }
 }

@@ -190,6 +190,7 @@ pub fn transition<T: Real, const S: usize>(
         let a = ar.transition(flex.period_s);
         mat::set_pair(&mut phi, TH + axis, THD + axis, &a);
     }
+    augment::set_gauss_markov_transition(&mut phi, aug, t);
     phi
 }
 

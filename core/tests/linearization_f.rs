@@ -289,9 +289,8 @@ fn master_error_blocks_decay_with_their_correlation_time() {
     for i in model::N..27 {
         for j in 0..27 {
             let expected = if i == j { want } else { 0.0 };
-            // Φ is a Taylor series of the third order: (t/τ)⁴/24 ≈ 2e-12 here.
             assert!(
-                (phi[(i, j)] - expected).abs() < 1e-10,
+                (phi[(i, j)] - expected).abs() < 1e-15,
                 "Φ[{i}, {j}] = {:e}, want {expected:e}",
                 phi[(i, j)]
             );

@@ -4,7 +4,8 @@
 //! built-in default exactly as `calibrate` does with no configuration), and with the
 //! built-in default itself. Both are scored against the truth (NEES, RMS/σ, per-channel
 //! NIS in its band), and the learned quantities against the values drawn
-//! (`crate::learn::truth`).
+//! (`crate::learn::truth`). The verdict (PASS/WARN/FAIL, `crate::verdict::ensemble`)
+//! judges the learned arm: what a user with no configuration gets.
 
 use super::montecarlo::{aggregate, ratio_figure, score_run, Aggregate, Args, RunResult, NAMES};
 use crate::calib::residuals::channel_residuals;
@@ -176,6 +177,18 @@ pub fn run(a: &Args) -> Result<(), String> {
             "parameters": r.params,
         })).collect::<Vec<_>>(),
     });
+    // The verdict judges the learned model (what a user with no configuration gets).
+    let ratios: Vec<(&str, f64)> = NAMES
+        .iter()
+        .enumerate()
+        .map(|(i, n)| (*n, agg_l.rms[i] / agg_l.mean_sigma[i]))
+        .collect();
+    let seeds_nees: Vec<(u64, f64)> = learned.iter().map(|r| (r.seed, r.nees)).collect();
+    let verdict = crate::verdict::Verdict {
+        findings: crate::verdict::ensemble::check(&seeds_nees, agg_l.nees_band, &ratios),
+    };
+    let mut doc = doc;
+    verdict.insert_into(&mut doc);
     let path = a.out.join("montecarlo.json");
     std::fs::write(
         &path,
@@ -231,5 +244,5 @@ pub fn run(a: &Args) -> Result<(), String> {
             m.count_resolved
         );
     }
-    Ok(())
+    verdict.conclude()
 }
