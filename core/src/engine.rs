@@ -12,6 +12,7 @@ use crate::mat::{self, vget};
 use crate::model::{
     self, IntervalMeans, LeverBending, ProcessNoise, StateMat, BA, BG, MU, N, PSI, TH, THD, V,
 };
+use crate::probe::{self, Phase};
 use crate::real::Real;
 use crate::rotation::{dcm, exp_so3, nlerp, quat_exp, quat_log, right_jacobian};
 use crate::strapdown::{Increments, NavState, Strapdown};
@@ -470,6 +471,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// Queues a master message; it is matched as soon as the slave solution reaches
     /// its time of validity (during this call if it already has).
     pub fn push_master(&mut self, msg: MasterNav<T>) -> Result<StepReports<T>, EngineError> {
+        let _phase = probe::enter(Phase::Engine);
         let finite = msg.t.is_finite()
             && msg.q_bm_n.coords.iter().all(|v| v.is_finite())
             && msg.v_n.iter().all(|v| v.is_finite())
@@ -508,6 +510,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// so a master message arriving late is still matched at its own filter epoch,
     /// and the estimates do not depend on the link's latency.
     pub fn push_imu(&mut self, s: ImuIncrement<T>) -> Result<StepReports<T>, EngineError> {
+        let _phase = probe::enter(Phase::Engine);
         if !(s.t.is_finite()
             && s.dtheta_b
                 .iter()
@@ -546,6 +549,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// Integrates every held IMU sample (end of stream: no master message will come
     /// for them) and matches what that reaches.
     pub fn flush(&mut self) -> StepReports<T> {
+        let _phase = probe::enter(Phase::Engine);
         let mut reports = StepReports::new();
         while let Some(h) = self.held.pop_front() {
             self.integrate(&h);
@@ -634,7 +638,10 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 dv_b: s.dv_b - self.accel_bias * dtt,
                 dt: dtt,
             };
-            sd.step_timed(&inc, dt);
+            {
+                let _phase = probe::enter(Phase::Strapdown);
+                sd.step_timed(&inc, dt);
+            }
             let nav = sd.nav;
             self.buffer.push(Snapshot {
                 t: s.t,
@@ -681,6 +688,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             v_n: nav.v_n,
             pos: nav.pos,
         };
+        let model_phase = probe::enter(Phase::Model);
         let phi = model::transition::<T, S>(&means, &self.cfg.flexure, &self.cfg.augmentation, dtt);
         let mut q = model::process_noise::<T, S>(&self.cfg.process_noise, &self.cfg.flexure, dtt);
         if self.frozen {
@@ -689,7 +697,11 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 mat::set(&mut q, i, i, T::zero());
             }
         }
-        self.kf.predict(&phi, &q);
+        drop(model_phase);
+        {
+            let _phase = probe::enter(Phase::Predict);
+            self.kf.predict(&phi, &q);
+        }
         self.counters.predictions += 1;
         // The next epoch; after a gap, restart the grid from this sample.
         let mut next = ep.next_t + period;
@@ -789,6 +801,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 0.0
             });
             let dtt = T::of(dt);
+            let _phase = probe::enter(Phase::Strapdown);
             sd.step_timed(
                 &Increments {
                     dtheta_b: (s.dtheta_raw_b * frac) - self.gyro_bias * dtt,
@@ -924,6 +937,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
 
     fn match_master(&mut self, msg: &MasterNav<T>) -> Result<MatchReport<T>, AlignError> {
         // The master's state belongs to the slave's time t − τ̂ (τ̂ = 0 without the delay block).
+        let _phase = probe::enter(Phase::Matching);
         let t_s = msg.t - self.delay_s;
         let slave = self.buffer.at(t_s)?;
         let c_bm_n = dcm(&msg.q_bm_n);
@@ -997,8 +1011,11 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 report.angular_rate = Some(self.update3(&rows, &z, r, gate));
             }
         }
-        self.feedback(t_s);
-        self.reset_if_stuck(&report);
+        {
+            let _phase = probe::enter(Phase::Engine);
+            self.feedback(t_s);
+            self.reset_if_stuck(&report);
+        }
         self.last_update_t = msg.t;
         Ok(report)
     }
@@ -1016,6 +1033,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             test_ratio: T::zero(),
             accepted: false,
         }; 3];
+        let _phase = probe::enter(Phase::Update);
         for (k, (row, slot)) in rows.iter().zip(out.iter_mut()).enumerate() {
             *slot = self.kf.update_scalar(row, z[k], r, gate);
         }
