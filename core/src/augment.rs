@@ -241,8 +241,8 @@ impl<T: Real> Augmentation<T> {
 }
 
 /// Adds `block` (3 rows × `C` columns) into `m` at `(row, col)`; entries outside are skipped.
-fn add_block<T: Real, const S: usize, const C: usize>(
-    m: &mut SMatrix<T, S, S>,
+fn add_block<T: Real, const R: usize, const S: usize, const C: usize>(
+    m: &mut SMatrix<T, R, S>,
     row: usize,
     col: usize,
     block: &SMatrix<T, 3, C>,
@@ -275,12 +275,12 @@ fn row_major_columns<T: Real>(f: &Vector3<T>) -> SMatrix<T, 3, 9> {
     m
 }
 
-/// Adds the augmented blocks' columns to the continuous-time dynamics `f` (S×S):
-/// the rows of δv (at `v_row`) and ψ (at `psi_row`), from the period's mean
+/// Adds the augmented blocks' columns to rows of the continuous-time dynamics `f` (R×S,
+/// the rows with dynamics): the rows of δv (at `v_row`) and ψ (at `psi_row`), from the period's mean
 /// specific force `f_b` (m/s², slave body), mean rate `w_ib_b` (rad/s, slave body)
 /// and attitude `c_b_n`.
-pub fn add_dynamics<T: Real, const S: usize>(
-    f: &mut SMatrix<T, S, S>,
+pub fn add_dynamics<T: Real, const R: usize, const S: usize>(
+    f: &mut SMatrix<T, R, S>,
     aug: &Augmentation<T>,
     rows: (usize, usize),
     f_b: &Vector3<T>,

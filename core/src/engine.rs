@@ -694,7 +694,9 @@ impl<T: Real, const S: usize> Engine<T, S> {
         if self.frozen {
             // Frozen quantities take no process noise either (their random walks stop).
             for i in (MU..TH).chain(N..self.cfg.augmentation.dimension()) {
-                mat::set(&mut q, i, i, T::zero());
+                if let Some(e) = q.diag.get_mut(i) {
+                    *e = T::zero();
+                }
             }
         }
         drop(model_phase);

@@ -192,7 +192,7 @@ fn check<const S: usize>(aug: &Augmentation<f64>, steps: usize, dt: f64) {
     };
     for i in 0..NAV {
         for &j in &columns {
-            let (m, d) = (phi[(i, j)], fd[(i, j)]);
+            let (m, d) = (phi.get(i, j), fd[(i, j)]);
             // The column block: three states of the declared model, or the whole
             // augmented effect (g-sensitivity's nine columns share one scale).
             let cols = aug
@@ -203,7 +203,7 @@ fn check<const S: usize>(aug: &Augmentation<f64>, steps: usize, dt: f64) {
                 });
             let block_max = (0..3)
                 .flat_map(|a| cols.clone().map(move |b| (i / 3 * 3 + a, b)))
-                .map(|(r, c)| (phi[(r, c)] - if r == c { 1.0 } else { 0.0 }).abs())
+                .map(|(r, c)| (phi.get(r, c) - if r == c { 1.0 } else { 0.0 }).abs())
                 .fold(0.0, f64::max);
             let tol = 2e-4 * block_max + 1e-6 * t;
             assert!(
