@@ -165,25 +165,46 @@ pub fn transition<T: Real, const S: usize>(
         }
     }
     let cols = cols.get(..n).unwrap_or(&[]);
-    // (F t)² and (F t)³ on those columns: only F's first `DYN` rows are not zero.
-    let mut f2 = SMatrix::<T, DYN, S>::zeros();
-    let mut f3 = SMatrix::<T, DYN, S>::zeros();
-    for &j in cols {
-        for i in 0..DYN {
-            let mut acc = T::zero();
-            for k in 0..DYN {
-                acc += mat::get(&ft, i, k) * mat::get(&ft, k, j);
+    // (F t)² and (F t)³ on those columns: only F's first `DYN` rows are not zero, so
+    // column j of a product is Σ_k (column k of the left factor's first DYN columns) ·
+    // F t(k, j), k ascending (the dense product's order). Columns as arrays: the board's
+    // size-optimized image would otherwise bounds-check every term.
+    let column = |m: &SMatrix<T, DYN, S>, j: usize| -> [T; DYN] {
+        let mut c = [T::zero(); DYN];
+        if let Some(src) = m.as_slice().get(j * DYN..j * DYN + DYN) {
+            c.copy_from_slice(src);
+        }
+        c
+    };
+    let mut ft_cols = [[T::zero(); DYN]; DYN];
+    for (k, c) in ft_cols.iter_mut().enumerate() {
+        *c = column(&ft, k);
+    }
+    let times_ft = |left: &[[T; DYN]; DYN], j: usize| -> [T; DYN] {
+        let mut acc = [T::zero(); DYN];
+        for (lk, &fkj) in left.iter().zip(column(&ft, j).iter()) {
+            for (a, &l) in acc.iter_mut().zip(lk.iter()) {
+                *a += l * fkj;
             }
-            mat::set(&mut f2, i, j, acc);
+        }
+        acc
+    };
+    let mut f2 = SMatrix::<T, DYN, S>::zeros();
+    for &j in cols {
+        let c = times_ft(&ft_cols, j);
+        if let Some(dst) = f2.as_mut_slice().get_mut(j * DYN..j * DYN + DYN) {
+            dst.copy_from_slice(&c);
         }
     }
+    let mut f2_cols = [[T::zero(); DYN]; DYN];
+    for (k, c) in f2_cols.iter_mut().enumerate() {
+        *c = column(&f2, k);
+    }
+    let mut f3 = SMatrix::<T, DYN, S>::zeros();
     for &j in cols {
-        for i in 0..DYN {
-            let mut acc = T::zero();
-            for k in 0..DYN {
-                acc += mat::get(&f2, i, k) * mat::get(&ft, k, j);
-            }
-            mat::set(&mut f3, i, j, acc);
+        let c = times_ft(&f2_cols, j);
+        if let Some(dst) = f3.as_mut_slice().get_mut(j * DYN..j * DYN + DYN) {
+            dst.copy_from_slice(&c);
         }
     }
     let mut index = [0usize; ACTIVE];
