@@ -369,21 +369,48 @@ impl<T: Real, const S: usize> Engine<T, S> {
         for i in cfg.augmentation.dimension()..S {
             mat::set(&mut p, i, i, T::one());
         }
-        // ψ = −J (δμ + θ) + n: propagate the covariance through that linear map.
+        // ψ = −J (δμ + θ) + n: the covariance through that linear map, written out. P₀ has
+        // no ψ block and its δμ block is diagonal, so only ψ's rows and columns change:
+        // P_ψμ = −J P_μμ, P_ψθ = −J P_θθ, P_ψθ̇ = −J P_θθ̇ (the flexure blocks are per axis),
+        // P_ψψ = J (P_μμ + P_θθ) Jᵀ + σ_att². No S×S product: at Config the board builds
+        // this on its stack.
         let j = right_jacobian(&cfg.initial_misalignment_rad);
-        let mut a = StateMat::<T, S>::identity();
-        for r in 0..3 {
-            for c in 0..3 {
-                let v = -mat::get(&j, r, c);
-                mat::set(&mut a, PSI + r, MU + c, v);
-                mat::set(&mut a, PSI + r, TH + c, v);
+        let jg = |r: usize, c: usize| mat::get(&j, r, c);
+        let (mut mu_var, mut th_var, mut th_thd) = ([T::zero(); 3], [T::zero(); 3], [T::zero(); 3]);
+        for k in 0..3 {
+            if let (Some(m), Some(t), Some(x)) =
+                (mu_var.get_mut(k), th_var.get_mut(k), th_thd.get_mut(k))
+            {
+                *m = mat::get(&p, MU + k, MU + k);
+                *t = mat::get(&p, TH + k, TH + k);
+                *x = mat::get(&p, TH + k, THD + k);
             }
         }
-        let mut p = a * p * a.transpose();
-        for k in 0..3 {
-            let i = PSI + k;
-            let v = mat::get(&p, i, i) + sq(cfg.measurement_noise.attitude_rad);
-            mat::set(&mut p, i, i, v);
+        let at = |v: &[T; 3], k: usize| v.get(k).copied().unwrap_or_else(T::zero);
+        for r in 0..3 {
+            for c in 0..3 {
+                let (mu, th, thd) = (at(&mu_var, c), at(&th_var, c), at(&th_thd, c));
+                for (col, v) in [
+                    (MU + c, -jg(r, c) * mu),
+                    (TH + c, -jg(r, c) * th),
+                    (THD + c, -jg(r, c) * thd),
+                ] {
+                    mat::set(&mut p, PSI + r, col, v);
+                    mat::set(&mut p, col, PSI + r, v);
+                }
+            }
+        }
+        for r in 0..3 {
+            for c in 0..3 {
+                let mut v = T::zero();
+                for k in 0..3 {
+                    v += jg(r, k) * (at(&mu_var, k) + at(&th_var, k)) * jg(c, k);
+                }
+                if r == c {
+                    v += sq(cfg.measurement_noise.attitude_rad);
+                }
+                mat::set(&mut p, PSI + r, PSI + c, v);
+            }
         }
         p
     }
