@@ -26,24 +26,13 @@ pub fn exp_so3<T: Real>(a: &Vector3<T>) -> Matrix3<T> {
 pub fn quat_exp<T: Real>(a: &Vector3<T>) -> UnitQuaternion<T> {
     let angle = a.norm();
     let half = angle * T::of(0.5);
-    // cos(x/2) and sin(x/2)/x. Below 0.01 rad (every strapdown step and closed-loop
-    // correction) by their Taylor series to the h⁶ term, h = x/2: the first term left out
-    // is below 1e-23 relative, far under f64's rounding, and the board's f32 `sin`/`cos`
-    // (computed in software double precision) are not called.
-    let (c, k) = if angle < T::of(1e-2) {
-        let h2 = half * half;
-        (
-            T::one()
-                - h2 / T::of(2.0) * (T::one() - h2 / T::of(12.0) * (T::one() - h2 / T::of(30.0))),
-            T::of(0.5)
-                * (T::one()
-                    - h2 / T::of(6.0)
-                        * (T::one() - h2 / T::of(20.0) * (T::one() - h2 / T::of(42.0)))),
-        )
+    // sin(x/2)/x, with its Taylor series near zero so tiny vectors stay exact.
+    let k = if angle < T::of(1e-4) {
+        T::of(0.5) - angle * angle / T::of(48.0)
     } else {
-        (half.cos(), half.sin() / angle)
+        half.sin() / angle
     };
-    UnitQuaternion::new_unchecked(Quaternion::new(c, a.x * k, a.y * k, a.z * k))
+    UnitQuaternion::new_unchecked(Quaternion::new(half.cos(), a.x * k, a.y * k, a.z * k))
 }
 
 /// Rotation vector (rad) of a unit quaternion, angle in [0, π]: `Log(q)`.
@@ -76,19 +65,10 @@ pub fn log_so3<T: Real>(c: &Matrix3<T>) -> Vector3<T> {
 pub fn right_jacobian<T: Real>(phi: &Vector3<T>) -> Matrix3<T> {
     let a = phi.norm();
     let k = skew(phi);
-    // Below 0.02 rad (a mounting misalignment of up to a degree) by the Taylor series
-    // to the a⁶ term: the first term left out is below 1e-19 relative.
-    let (c1, c2) = if a < T::of(2e-2) {
-        let a2 = a * a;
+    let (c1, c2) = if a < T::of(1e-3) {
         (
-            T::of(0.5)
-                * (T::one()
-                    - a2 / T::of(12.0)
-                        * (T::one() - a2 / T::of(30.0) * (T::one() - a2 / T::of(56.0)))),
-            T::one() / T::of(6.0)
-                * (T::one()
-                    - a2 / T::of(20.0)
-                        * (T::one() - a2 / T::of(42.0) * (T::one() - a2 / T::of(72.0)))),
+            T::of(0.5) - a * a / T::of(24.0),
+            T::one() / T::of(6.0) - a * a / T::of(120.0),
         )
     } else {
         let a2 = a * a;
