@@ -308,8 +308,8 @@ impl<T: Real> Augmentation<T> {
 }
 
 /// Adds `block` (3 rows × `C` columns) into `m` at `(row, col)`; entries outside are skipped.
-fn add_block<T: Real, const S: usize, const C: usize>(
-    m: &mut SMatrix<T, S, S>,
+fn add_block<T: Real, const R: usize, const S: usize, const C: usize>(
+    m: &mut SMatrix<T, R, S>,
     row: usize,
     col: usize,
     block: &SMatrix<T, 3, C>,
@@ -342,12 +342,12 @@ fn row_major_columns<T: Real>(f: &Vector3<T>) -> SMatrix<T, 3, 9> {
     m
 }
 
-/// Adds the augmented blocks' columns to the continuous-time dynamics `f` (S×S):
-/// the rows of δv (at `v_row`) and ψ (at `psi_row`), from the period's mean
+/// Adds the augmented blocks' columns to rows of the continuous-time dynamics `f` (R×S,
+/// the rows with dynamics): the rows of δv (at `v_row`) and ψ (at `psi_row`), from the period's mean
 /// specific force `f_b` (m/s², slave body), mean rate `w_ib_b` (rad/s, slave body)
 /// and attitude `c_b_n`.
-pub fn add_dynamics<T: Real, const S: usize>(
-    f: &mut SMatrix<T, S, S>,
+pub fn add_dynamics<T: Real, const R: usize, const S: usize>(
+    f: &mut SMatrix<T, R, S>,
     aug: &Augmentation<T>,
     rows: (usize, usize),
     f_b: &Vector3<T>,
@@ -367,7 +367,7 @@ pub fn add_dynamics<T: Real, const S: usize>(
                 add_block(f, v_row, o, &(c_b_n * nonorthogonality_columns(f_b)))
             }
             Effect::GyroGSensitivity => add_block(f, psi_row, o, &row_major_columns(f_b)),
-            // Their own decay is exact in Φ (`set_gauss_markov_transition`).
+            // Their own decay is applied apart (`gauss_markov_states`).
             Effect::MasterAttitudeError
             | Effect::MasterVelocityError
             | Effect::TimeDelay
@@ -377,35 +377,29 @@ pub fn add_dynamics<T: Real, const S: usize>(
     }
 }
 
-/// Sets the transition of the Gauss-Markov blocks over a period `t` (s): `e^{−t/τ}` on
-/// their diagonal (they are driven by nothing else).
-pub fn set_gauss_markov_transition<T: Real, const S: usize>(
-    phi: &mut SMatrix<T, S, S>,
+/// The states of the Gauss-Markov blocks and their decay `e^{−t/τ}` over a period `t`
+/// (s): their transition, which no other row of Φ reads (`Kalman::decay` applies it).
+pub fn gauss_markov_states<T: Real>(
     aug: &Augmentation<T>,
     t: T,
-) {
+) -> (impl Iterator<Item = usize> + '_, T) {
     let decay = (-t / aug.master_error_correlation_s()).exp();
-    for b in aug.blocks().filter(|b| b.effect.is_gauss_markov()) {
-        for k in 0..b.effect.states() {
-            if let Some(e) = phi.get_mut((b.offset + k, b.offset + k)) {
-                *e = decay;
-            }
-        }
-    }
+    let states = aug
+        .blocks()
+        .filter(|b| b.effect.is_gauss_markov())
+        .flat_map(|b| b.offset..b.offset + b.effect.states());
+    (states, decay)
 }
 
 /// Adds the discrete process noise of the Gauss-Markov blocks over a period `t` (s) to
-/// `q`: `σ² (1 − e^{−2t/τ})` per state keeps each at its stationary σ.
-pub fn add_process_noise<T: Real, const S: usize>(
-    q: &mut SMatrix<T, S, S>,
-    aug: &Augmentation<T>,
-    t: T,
-) {
+/// the diagonal `q_diag` of Q: `σ² (1 − e^{−2t/τ})` per state keeps each at its
+/// stationary σ.
+pub fn add_process_noise<T: Real>(q_diag: &mut [T], aug: &Augmentation<T>, t: T) {
     for b in aug.blocks().filter(|b| b.effect.is_gauss_markov()) {
         let decay = (-(t + t) / aug.master_error_correlation_s()).exp();
         let v = b.prior_sigma * b.prior_sigma * (T::one() - decay);
         for k in 0..b.effect.states() {
-            if let Some(e) = q.get_mut((b.offset + k, b.offset + k)) {
+            if let Some(e) = q_diag.get_mut(b.offset + k) {
                 *e += v;
             }
         }
@@ -603,12 +597,14 @@ mod master_error_tests {
             .unwrap();
         assert_eq!(a.master_error_correlation_s(), 35.0);
         let t = 0.1;
-        let mut q = SMatrix::<f64, 24, 24>::zeros();
+        let mut q = [0.0; 24];
         add_process_noise(&mut q, &a, t);
-        let phi = (-t / a.master_error_correlation_s()).exp();
+        let (states, phi) = gauss_markov_states(&a, t);
+        assert!(states.eq([N, N + 1, N + 2]));
+        assert_eq!(phi, (-t / 35.0f64).exp());
         // Stationary: σ² = φ² σ² + q.
-        let stationary = q[(N, N)] / (1.0 - phi * phi);
+        let stationary = q[N] / (1.0 - phi * phi);
         assert!((stationary.sqrt() / 0.03 - 1.0).abs() < 1e-12);
-        assert_eq!(q[(N - 1, N - 1)], 0.0);
+        assert_eq!(q[N - 1], 0.0);
     }
 }

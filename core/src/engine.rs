@@ -12,6 +12,7 @@ use crate::mat::{self, vget};
 use crate::model::{
     self, IntervalMeans, LeverBending, ProcessNoise, StateMat, BA, BG, MU, N, PSI, TH, THD, V,
 };
+use crate::probe::{self, Phase};
 use crate::real::Real;
 use crate::rotation::{dcm, exp_so3, nlerp, quat_exp, quat_log, right_jacobian};
 use crate::strapdown::{Increments, NavState, Strapdown};
@@ -368,21 +369,48 @@ impl<T: Real, const S: usize> Engine<T, S> {
         for i in cfg.augmentation.dimension()..S {
             mat::set(&mut p, i, i, T::one());
         }
-        // ψ = −J (δμ + θ) + n: propagate the covariance through that linear map.
+        // ψ = −J (δμ + θ) + n: the covariance through that linear map, written out. P₀ has
+        // no ψ block and its δμ block is diagonal, so only ψ's rows and columns change:
+        // P_ψμ = −J P_μμ, P_ψθ = −J P_θθ, P_ψθ̇ = −J P_θθ̇ (the flexure blocks are per axis),
+        // P_ψψ = J (P_μμ + P_θθ) Jᵀ + σ_att². No S×S product: at Config the board builds
+        // this on its stack.
         let j = right_jacobian(&cfg.initial_misalignment_rad);
-        let mut a = StateMat::<T, S>::identity();
-        for r in 0..3 {
-            for c in 0..3 {
-                let v = -mat::get(&j, r, c);
-                mat::set(&mut a, PSI + r, MU + c, v);
-                mat::set(&mut a, PSI + r, TH + c, v);
+        let jg = |r: usize, c: usize| mat::get(&j, r, c);
+        let (mut mu_var, mut th_var, mut th_thd) = ([T::zero(); 3], [T::zero(); 3], [T::zero(); 3]);
+        for k in 0..3 {
+            if let (Some(m), Some(t), Some(x)) =
+                (mu_var.get_mut(k), th_var.get_mut(k), th_thd.get_mut(k))
+            {
+                *m = mat::get(&p, MU + k, MU + k);
+                *t = mat::get(&p, TH + k, TH + k);
+                *x = mat::get(&p, TH + k, THD + k);
             }
         }
-        let mut p = a * p * a.transpose();
-        for k in 0..3 {
-            let i = PSI + k;
-            let v = mat::get(&p, i, i) + sq(cfg.measurement_noise.attitude_rad);
-            mat::set(&mut p, i, i, v);
+        let at = |v: &[T; 3], k: usize| v.get(k).copied().unwrap_or_else(T::zero);
+        for r in 0..3 {
+            for c in 0..3 {
+                let (mu, th, thd) = (at(&mu_var, c), at(&th_var, c), at(&th_thd, c));
+                for (col, v) in [
+                    (MU + c, -jg(r, c) * mu),
+                    (TH + c, -jg(r, c) * th),
+                    (THD + c, -jg(r, c) * thd),
+                ] {
+                    mat::set(&mut p, PSI + r, col, v);
+                    mat::set(&mut p, col, PSI + r, v);
+                }
+            }
+        }
+        for r in 0..3 {
+            for c in 0..3 {
+                let mut v = T::zero();
+                for k in 0..3 {
+                    v += jg(r, k) * (at(&mu_var, k) + at(&th_var, k)) * jg(c, k);
+                }
+                if r == c {
+                    v += sq(cfg.measurement_noise.attitude_rad);
+                }
+                mat::set(&mut p, PSI + r, PSI + c, v);
+            }
         }
         p
     }
@@ -484,6 +512,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// Queues a master message; it is matched as soon as the slave solution reaches
     /// its time of validity (during this call if it already has).
     pub fn push_master(&mut self, msg: MasterNav<T>) -> Result<StepReports<T>, EngineError> {
+        let _phase = probe::enter(Phase::Engine);
         let finite = msg.t.is_finite()
             && msg.q_bm_n.coords.iter().all(|v| v.is_finite())
             && msg.v_n.iter().all(|v| v.is_finite())
@@ -522,6 +551,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// so a master message arriving late is still matched at its own filter epoch,
     /// and the estimates do not depend on the link's latency.
     pub fn push_imu(&mut self, s: ImuIncrement<T>) -> Result<StepReports<T>, EngineError> {
+        let _phase = probe::enter(Phase::Engine);
         if !(s.t.is_finite()
             && s.dtheta_b
                 .iter()
@@ -560,6 +590,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// Integrates every held IMU sample (end of stream: no master message will come
     /// for them) and matches what that reaches.
     pub fn flush(&mut self) -> StepReports<T> {
+        let _phase = probe::enter(Phase::Engine);
         let mut reports = StepReports::new();
         while let Some(h) = self.held.pop_front() {
             self.integrate(&h);
@@ -648,7 +679,10 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 dv_b: s.dv_b - self.accel_bias * dtt,
                 dt: dtt,
             };
-            sd.step_timed(&inc, dt);
+            {
+                let _phase = probe::enter(Phase::Strapdown);
+                sd.step_timed(&inc, dt);
+            }
             let nav = sd.nav;
             self.buffer.push(Snapshot {
                 t: s.t,
@@ -695,16 +729,28 @@ impl<T: Real, const S: usize> Engine<T, S> {
             v_n: nav.v_n,
             pos: nav.pos,
         };
+        let model_phase = probe::enter(Phase::Model);
         let phi = model::transition::<T, S>(&means, &self.cfg.flexure, &self.cfg.augmentation, dtt);
         let mut q = model::process_noise::<T, S>(&self.cfg.process_noise, &self.cfg.flexure, dtt);
         if self.frozen {
             // Frozen quantities take no process noise either (their random walks stop).
             for i in (MU..TH).chain(self.calibrated_effect_states()) {
-                mat::set(&mut q, i, i, T::zero());
+                if let Some(e) = q.diag.get_mut(i) {
+                    *e = T::zero();
+                }
             }
         }
-        augment::add_process_noise(&mut q, &self.cfg.augmentation, dtt);
-        self.kf.predict(&phi, &q);
+        augment::add_process_noise(&mut q.diag, &self.cfg.augmentation, dtt);
+        drop(model_phase);
+        {
+            let _phase = probe::enter(Phase::Predict);
+            // The master's Gauss-Markov errors decay on their own, before Φ's other rows.
+            let (states, decay) = augment::gauss_markov_states(&self.cfg.augmentation, dtt);
+            for i in states {
+                self.kf.decay(i, decay);
+            }
+            self.kf.predict(&phi, &q);
+        }
         self.counters.predictions += 1;
         // The next epoch; after a gap, restart the grid from this sample.
         let mut next = ep.next_t + period;
@@ -804,6 +850,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 0.0
             });
             let dtt = T::of(dt);
+            let _phase = probe::enter(Phase::Strapdown);
             sd.step_timed(
                 &Increments {
                     dtheta_b: (s.dtheta_raw_b * frac) - self.gyro_bias * dtt,
@@ -940,6 +987,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
 
     fn match_master(&mut self, msg: &MasterNav<T>) -> Result<MatchReport<T>, AlignError> {
         // The master's state belongs to the slave's time t − τ̂ (τ̂ = 0 without the delay block).
+        let _phase = probe::enter(Phase::Matching);
         let t_s = msg.t - self.delay_s;
         let slave = self.buffer.at(t_s)?;
         let c_bm_n = dcm(&msg.q_bm_n);
@@ -1013,8 +1061,11 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 report.angular_rate = Some(self.update3(&rows, &z, r, gate));
             }
         }
-        self.feedback(t_s);
-        self.reset_if_stuck(&report);
+        {
+            let _phase = probe::enter(Phase::Engine);
+            self.feedback(t_s);
+            self.reset_if_stuck(&report);
+        }
         self.last_update_t = msg.t;
         Ok(report)
     }
@@ -1032,6 +1083,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             test_ratio: T::zero(),
             accepted: false,
         }; 3];
+        let _phase = probe::enter(Phase::Update);
         for (k, (row, slot)) in rows.iter().zip(out.iter_mut()).enumerate() {
             *slot = self.kf.update_scalar(row, z[k], r, gate);
         }

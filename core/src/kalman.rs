@@ -44,20 +44,164 @@ pub struct ScalarUpdate<T> {
     pub accepted: bool,
 }
 
+/// A transition Φ (physical units) that is the identity except on `R` rows: each of those
+/// rows dense over the `N` states, with the list of its non-zero columns. The error model's
+/// Φ has this shape (only δv, ψ and the flexure states have dynamics), and the covariance
+/// propagation then touches only those rows and columns.
+#[derive(Clone, Copy, Debug)]
+pub struct Transition<T, const N: usize, const R: usize> {
+    /// State index of each row that is not the identity's (distinct).
+    index: [usize; R],
+    /// Those rows: `Φ(index[r], j)` at `values[r][j]`.
+    values: [[T; N]; R],
+    /// Non-zero columns of each row, ascending; `count[r]` of them (a byte each: the
+    /// engine's layouts have at most 33 states).
+    cols: [[u8; N]; R],
+    count: [usize; R],
+}
+
+impl<T: Real, const N: usize, const R: usize> Transition<T, N, R> {
+    /// The identity, with rows `index` to be set by [`Transition::set_row`].
+    pub fn new(index: [usize; R]) -> Self {
+        let mut t = Self {
+            index,
+            values: [[T::zero(); N]; R],
+            cols: [[0; N]; R],
+            count: [0; R],
+        };
+        for (((&i, row), cols), count) in index
+            .iter()
+            .zip(t.values.iter_mut())
+            .zip(t.cols.iter_mut())
+            .zip(t.count.iter_mut())
+        {
+            if let (Some(e), Some(c)) = (row.get_mut(i), cols.first_mut()) {
+                *e = T::one();
+                *c = i as u8;
+                *count = 1;
+            }
+        }
+        t
+    }
+
+    /// Row `r` from `row` (dense), its non-zero columns listed.
+    pub fn set_row(&mut self, r: usize, row: &[T; N]) {
+        let (Some(dst), Some(cols), Some(count)) = (
+            self.values.get_mut(r),
+            self.cols.get_mut(r),
+            self.count.get_mut(r),
+        ) else {
+            return;
+        };
+        *dst = *row;
+        let mut n = 0;
+        for (j, &v) in row.iter().enumerate() {
+            if v != T::zero() {
+                if let Some(c) = cols.get_mut(n) {
+                    *c = j as u8;
+                }
+                n += 1;
+            }
+        }
+        *count = n;
+    }
+
+    /// Element `(i, j)` of Φ.
+    pub fn get(&self, i: usize, j: usize) -> T {
+        match self.index.iter().position(|&k| k == i) {
+            Some(r) => self
+                .values
+                .get(r)
+                .and_then(|row| row.get(j))
+                .copied()
+                .unwrap_or_else(T::zero),
+            None if i == j && i < N => T::one(),
+            None => T::zero(),
+        }
+    }
+}
+
+/// A process noise Q (physical units): its diagonal and `P` symmetric off-diagonal pairs.
+#[derive(Clone, Copy, Debug)]
+pub struct Noise<T, const N: usize, const P: usize> {
+    /// `Q(i, i)`.
+    pub diag: [T; N],
+    /// `(i, j, Q(i, j))` with `i ≠ j`; `Q(j, i)` is the same.
+    pub pairs: [(usize, usize, T); P],
+}
+
 /// The filter: scaled state and covariance of dimension `N`.
+///
+/// Only the upper triangle of the scaled covariance (`(i, j)`, `i ≤ j`) is kept: every
+/// operation reads and writes that triangle, so the matrix is symmetric by construction and
+/// each update does half the work.
 #[derive(Clone, Debug)]
 pub struct Kalman<T: Real, const N: usize> {
     xs: SVector<T, N>,
+    /// Column-major; meaningful on and above the diagonal only.
     ps: SMatrix<T, N, N>,
     scale: SVector<T, N>,
+    /// `1 / scale`, so that scaling Φ and Q takes no division.
+    inv_scale: SVector<T, N>,
     floor: T,
     /// Health counters.
     pub health: Health,
 }
 
+/// Position of `(i, j)` in the stored triangle (column-major, `min ≤ max`).
+#[inline(always)]
+fn upper<const N: usize>(i: usize, j: usize) -> usize {
+    if i <= j {
+        j * N + i
+    } else {
+        i * N + j
+    }
+}
+
+/// `dst[i] += a · src[i]` over the shorter of the two, four at a time: the board's image is
+/// optimized for size, which does not unroll, and the loop overhead would otherwise cost as
+/// much as the multiply-add itself. Each element's arithmetic is the same as the plain loop's.
+#[inline(always)]
+fn axpy<T: Real>(dst: &mut [T], a: T, src: &[T]) {
+    let n = dst.len().min(src.len());
+    let (dst, src) = (
+        dst.get_mut(..n).unwrap_or(&mut []),
+        src.get(..n).unwrap_or(&[]),
+    );
+    let mut d4 = dst.chunks_exact_mut(4);
+    let mut s4 = src.chunks_exact(4);
+    for (d, s) in (&mut d4).zip(&mut s4) {
+        if let ([d0, d1, d2, d3], [s0, s1, s2, s3]) = (d, s) {
+            *d0 += a * *s0;
+            *d1 += a * *s1;
+            *d2 += a * *s2;
+            *d3 += a * *s3;
+        }
+    }
+    for (d, &s) in d4.into_remainder().iter_mut().zip(s4.remainder()) {
+        *d += a * s;
+    }
+}
+
+/// `acc[m] += f · P(k, m)` for every `m`, from the upper triangle `ps` (column-major, N×N):
+/// row k of P is column k above the diagonal and row k of the stored triangle from it on.
+#[inline(always)]
+fn add_row<T: Real, const N: usize>(acc: &mut [T; N], f: T, ps: &[T], k: usize) {
+    let (head, tail) = acc.split_at_mut(k.min(N));
+    axpy(head, f, ps.get(k * N..).unwrap_or(&[]));
+    // Row k from the diagonal on: one element per column, N apart.
+    let mut idx = k * N + k;
+    for e in tail.iter_mut() {
+        if let Some(&p) = ps.get(idx) {
+            *e += f * p;
+        }
+        idx += N;
+    }
+}
+
 impl<T: Real, const N: usize> Kalman<T, N> {
-    /// Creates the filter from the initial covariance `p0` (physical units); the state
-    /// scales are the square roots of its diagonal (a zero diagonal gets scale 1).
+    /// Creates the filter from the initial covariance `p0` (physical units, symmetric); the
+    /// state scales are the square roots of its diagonal (a zero diagonal gets scale 1).
     /// `variance_floor` is the smallest allowed *scaled* variance, e.g. 1e-10.
     pub fn new(p0: &SMatrix<T, N, N>, variance_floor: T) -> Self {
         let scale = SVector::<T, N>::from_fn(|i, _| {
@@ -74,6 +218,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         Self {
             xs: SVector::zeros(),
             ps,
+            inv_scale: scale.map(|s| T::one() / s),
             scale,
             floor: variance_floor,
             health: Health::default(),
@@ -87,7 +232,11 @@ impl<T: Real, const N: usize> Kalman<T, N> {
 
     /// Covariance element (physical units).
     pub fn cov(&self, i: usize, j: usize) -> T {
-        match (self.ps.get((i, j)), self.scale.get(i), self.scale.get(j)) {
+        match (
+            self.ps.as_slice().get(upper::<N>(i, j)),
+            self.scale.get(i),
+            self.scale.get(j),
+        ) {
             (Some(p), Some(si), Some(sj)) => *p * *si * *sj,
             _ => T::zero(),
         }
@@ -103,9 +252,11 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         self.cov(i, i).max(T::zero()).sqrt()
     }
 
-    /// Scaled covariance (dimensionless; what the numerics act on).
-    pub fn scaled_covariance(&self) -> &SMatrix<T, N, N> {
-        &self.ps
+    /// Scaled covariance (dimensionless; what the numerics act on), both triangles filled
+    /// from the stored one (O(N²), for checks and reports).
+    pub fn scaled_covariance(&self) -> SMatrix<T, N, N> {
+        let ps = self.ps.as_slice();
+        SMatrix::from_fn(|i, j| ps.get(upper::<N>(i, j)).copied().unwrap_or_else(T::zero))
     }
 
     /// Sets the states listed in `indices` to zero after their estimate has been fed
@@ -132,121 +283,227 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         }
     }
 
-    /// Time update `x ← Φ x`, `P ← Φ P Φᵀ + Q` (physical-unit Φ and Q), using only the
-    /// non-zero entries of Φ and computing one triangle of the symmetric result.
-    pub fn predict(&mut self, phi: &SMatrix<T, N, N>, q: &SMatrix<T, N, N>) {
-        // Plain slices throughout (matrices are column-major: (i, j) at j·N + i); nalgebra's
-        // element iterators are not inlined in the size-optimized board image.
-        let scale = self.scale.as_slice();
-        let sc = |i: usize| scale.get(i).copied().unwrap_or_else(T::one);
-        // Non-zeros of the scaled transition Φ_s = S⁻¹ Φ S per row, as (column, value),
-        // columns ascending (one pass over Φ's columns in order).
-        let mut nz: [[(usize, T); N]; N] = [[(0, T::zero()); N]; N];
-        let mut counts = [0usize; N];
-        for (j, col) in phi.as_slice().chunks_exact(N).enumerate() {
-            for (i, ((&v, row), c)) in col
-                .iter()
-                .zip(nz.iter_mut())
-                .zip(counts.iter_mut())
-                .enumerate()
-            {
-                if v != T::zero() {
-                    if let Some(slot) = row.get_mut(*c) {
-                        *slot = (j, v * sc(j) / sc(i));
-                    }
-                    *c += 1;
-                }
+    /// Scales state `i` by `d`: `x_i ← d x_i`, row and column `i` of P by `d` (`P_ii` by
+    /// `d²`). The transition of a state that decays on its own (a first-order Gauss-Markov
+    /// state, `d = e^{−t/τ}`) and that no other row of Φ reads: then
+    /// `Φ = Φ_rest · D` with `D` this scaling, and applying it before [`Self::predict`]
+    /// with `Φ_rest` is the full time update, at O(N) instead of a row of Φ.
+    pub fn decay(&mut self, i: usize, d: T) {
+        if i >= N {
+            return;
+        }
+        if let Some(x) = self.xs.get_mut(i) {
+            *x *= d;
+        }
+        let ps = self.ps.as_mut_slice();
+        for j in 0..N {
+            if let Some(e) = ps.get_mut(upper::<N>(i, j)) {
+                *e *= if j == i { d * d } else { d };
             }
-        }
-        let mut xs_new = SVector::<T, N>::zeros();
-        for ((x, row), &c) in xs_new
-            .as_mut_slice()
-            .iter_mut()
-            .zip(nz.iter())
-            .zip(counts.iter())
-        {
-            *x = sparse_dot(row, c, self.xs.as_slice());
-        }
-        // Row i of A = Φ_s P_s is a sum of whole rows of P_s: a[i] = Σ_j Φ_s(i, j) P_s(j, ·),
-        // j ascending. P_s is exactly symmetric (every update writes both triangles from
-        // one value), so row j is column j: the column-major storage's j-th chunk.
-        let mut a = [[T::zero(); N]; N];
-        for ((arow, row), &c) in a.iter_mut().zip(nz.iter()).zip(counts.iter()) {
-            for &(j, f) in row.get(..c).unwrap_or(&[]) {
-                if let Some(prow) = self.ps.as_slice().chunks_exact(N).nth(j) {
-                    for (e, &p) in arow.iter_mut().zip(prow.iter()) {
-                        *e += f * p;
-                    }
-                }
-            }
-        }
-        // P' = A Φ_sᵀ + Q_s, upper triangle then mirrored.
-        let mut p_new = SMatrix::<T, N, N>::zeros();
-        let qv = q.as_slice();
-        let pn = p_new.as_mut_slice();
-        for (i, arow) in a.iter().enumerate() {
-            for (j, (row, &c)) in nz.iter().zip(counts.iter()).enumerate().skip(i) {
-                let qij = qv.get(j * N + i).copied().unwrap_or_else(T::zero);
-                let qs = if qij != T::zero() {
-                    qij / (sc(i) * sc(j))
-                } else {
-                    T::zero()
-                };
-                let v = sparse_dot(row, c, arow) + qs;
-                if let Some(e) = pn.get_mut(j * N + i) {
-                    *e = v;
-                }
-                if let Some(e) = pn.get_mut(i * N + j) {
-                    *e = v;
-                }
-            }
-        }
-        if xs_new
-            .as_slice()
-            .iter()
-            .chain(p_new.as_slice().iter())
-            .all(|v| v.is_finite())
-        {
-            self.xs = xs_new;
-            self.ps = p_new;
-            self.clamp_variances();
-        } else {
-            self.health.non_finite += 1;
         }
     }
 
+    /// Time update `x ← Φ x`, `P ← Φ P Φᵀ + Q` (physical-unit Φ and Q). Only the rows and
+    /// columns of Φ's non-identity rows change (with `A` those rows: `P_as ← Φ_a P` on the
+    /// other columns, `P_aa ← (Φ_a P) Φ_aᵀ`), each product over the rows' non-zero columns;
+    /// the rest of P only takes its diagonal Q. A step with a non-finite result is refused.
+    pub fn predict<const R: usize, const P: usize>(
+        &mut self,
+        phi: &Transition<T, N, R>,
+        q: &Noise<T, N, P>,
+    ) {
+        let (sc, inv) = (self.scale.as_slice(), self.inv_scale.as_slice());
+        let at = |v: &[T], i: usize| v.get(i).copied().unwrap_or_else(T::zero);
+        let mut active = [false; N];
+        for &i in phi.index.iter() {
+            if let Some(a) = active.get_mut(i) {
+                *a = true;
+            }
+        }
+        // Scaled rows Φ_s(i, k) = Φ(i, k) s_k / s_i, compact over the non-zero columns.
+        let mut fs = [[T::zero(); N]; R];
+        // B = Φ_s,a P_s (the active rows of Φ P), and Φ_s,a x_s.
+        let mut b = [[T::zero(); N]; R];
+        let mut x_new = [T::zero(); R];
+        let ps = self.ps.as_slice();
+        let mut check = T::zero();
+        for (r, (brow, (frow, xn))) in b
+            .iter_mut()
+            .zip(fs.iter_mut().zip(x_new.iter_mut()))
+            .enumerate()
+        {
+            let (Some(&i), Some(vals), Some(cols), Some(&n)) = (
+                phi.index.get(r),
+                phi.values.get(r),
+                phi.cols.get(r),
+                phi.count.get(r),
+            ) else {
+                continue;
+            };
+            let inv_i = at(inv, i);
+            for (&k, f) in cols.get(..n).unwrap_or(&[]).iter().zip(frow.iter_mut()) {
+                let k = usize::from(k);
+                *f = at(vals, k) * at(sc, k) * inv_i;
+                *xn += *f * at(self.xs.as_slice(), k);
+                add_row(brow, *f, ps, k);
+            }
+            check += *xn;
+            for &v in brow.iter() {
+                check += v;
+            }
+        }
+        // P_aa = B Φ_s,aᵀ on the upper triangle (pairs r ≤ q), with Q_s added.
+        let mut paa = [[T::zero(); R]; R];
+        for (qq, (frow, (cols, &n))) in fs
+            .iter()
+            .zip(phi.cols.iter().zip(phi.count.iter()))
+            .enumerate()
+        {
+            for (r, brow) in b.iter().enumerate().take(qq + 1) {
+                let mut acc = T::zero();
+                for (&k, &f) in cols.get(..n).unwrap_or(&[]).iter().zip(frow.iter()) {
+                    acc += at(brow, usize::from(k)) * f;
+                }
+                if let Some(e) = paa.get_mut(r).and_then(|row| row.get_mut(qq)) {
+                    *e = acc;
+                }
+            }
+        }
+        let pos = |i: usize| phi.index.iter().position(|&k| k == i);
+        let qs = |i: usize, j: usize, v: T| v * at(inv, i) * at(inv, j);
+        let mut diag_static = [T::zero(); N];
+        for (i, ((d, &qd), &a)) in diag_static
+            .iter_mut()
+            .zip(q.diag.iter())
+            .zip(active.iter())
+            .enumerate()
+        {
+            let v = if qd != T::zero() {
+                qs(i, i, qd)
+            } else {
+                T::zero()
+            };
+            if a {
+                if let Some(e) = pos(i).and_then(|r| paa.get_mut(r).and_then(|row| row.get_mut(r)))
+                {
+                    *e += v;
+                }
+            } else {
+                *d = at(ps, i * N + i) + v;
+                check += *d;
+            }
+        }
+        let mut pairs_static = [(0usize, T::zero()); P];
+        for (&(i, j, v), slot) in q.pairs.iter().zip(pairs_static.iter_mut()) {
+            let v = qs(i, j, v);
+            match (pos(i), pos(j)) {
+                (Some(r), Some(c)) => {
+                    let (r, c) = (r.min(c), r.max(c));
+                    if let Some(e) = paa.get_mut(r).and_then(|row| row.get_mut(c)) {
+                        *e += v;
+                    }
+                }
+                // One active: the new value is that row's, in `b`.
+                (Some(r), None) | (None, Some(r)) => {
+                    let other = if pos(i).is_some() { j } else { i };
+                    if let Some(e) = b.get_mut(r).and_then(|row| row.get_mut(other)) {
+                        *e += v;
+                        check += v;
+                    }
+                }
+                (None, None) => {
+                    let k = upper::<N>(i, j);
+                    *slot = (k, at(ps, k) + v);
+                    check += slot.1;
+                }
+            }
+        }
+        for (r, row) in paa.iter().enumerate() {
+            for &v in row.iter().skip(r) {
+                check += v;
+            }
+        }
+        if !check.is_finite() {
+            self.health.non_finite += 1;
+            return;
+        }
+        // Write back: active rows against static columns, the active block, the rest's Q.
+        let ps = self.ps.as_mut_slice();
+        for (r, (brow, &xn)) in b.iter().zip(x_new.iter()).enumerate() {
+            let Some(&i) = phi.index.get(r) else { continue };
+            if let Some(x) = self.xs.get_mut(i) {
+                *x = xn;
+            }
+            for (j, (&v, &a)) in brow.iter().zip(active.iter()).enumerate() {
+                if !a {
+                    if let Some(e) = ps.get_mut(upper::<N>(i, j)) {
+                        *e = v;
+                    }
+                }
+            }
+            for (c, &v) in paa
+                .get(r)
+                .map_or(&[][..], |row| &row[..])
+                .iter()
+                .enumerate()
+                .skip(r)
+            {
+                if let Some(e) = phi.index.get(c).and_then(|&j| ps.get_mut(upper::<N>(i, j))) {
+                    *e = v;
+                }
+            }
+        }
+        for (i, (&d, &a)) in diag_static.iter().zip(active.iter()).enumerate() {
+            if !a {
+                if let Some(e) = ps.get_mut(i * N + i) {
+                    *e = d;
+                }
+            }
+        }
+        for (k, v) in pairs_static {
+            if v != T::zero() {
+                if let Some(e) = ps.get_mut(k) {
+                    *e = v;
+                }
+            }
+        }
+        self.clamp_variances();
+    }
+
     /// Sequential scalar update with measurement row `h` (physical units), measurement
-    /// `z`, noise variance `r`, and gate `gate` in standard deviations.
+    /// `z`, noise variance `r`, and gate `gate` in standard deviations. Works over the
+    /// non-zero entries of `h` (a matching row has at most a dozen) and the stored triangle.
     pub fn update_scalar(&mut self, h: &SVector<T, N>, z: T, r: T, gate: T) -> ScalarUpdate<T> {
-        let mut hs = SVector::<T, N>::zeros();
-        // P h over the non-zero entries of h only (a matching row has at most 12).
         let mut hnz = [(0usize, T::zero()); N];
         let mut n_h = 0usize;
-        for (j, ((o, &hj), &sj)) in hs
-            .as_mut_slice()
-            .iter_mut()
-            .zip(h.as_slice().iter())
+        for (j, (&hj, &sj)) in h
+            .as_slice()
+            .iter()
             .zip(self.scale.as_slice().iter())
             .enumerate()
         {
-            *o = hj * sj;
-            if *o != T::zero() {
+            let v = hj * sj;
+            if v != T::zero() {
                 if let Some(slot) = hnz.get_mut(n_h) {
-                    *slot = (j, *o);
+                    *slot = (j, v);
                 }
                 n_h += 1;
             }
         }
-        let mut ph = SVector::<T, N>::zeros();
-        for &(j, hj) in hnz.get(..n_h).unwrap_or(&[]) {
-            if let Some(pcol) = self.ps.as_slice().chunks_exact(N).nth(j) {
-                for (y, &p) in ph.as_mut_slice().iter_mut().zip(pcol.iter()) {
-                    *y += p * hj;
-                }
-            }
+        let hnz = hnz.get(..n_h).unwrap_or(&[]);
+        // P h: row j of P times h_j, summed (P symmetric).
+        let mut ph = [T::zero(); N];
+        let ps = self.ps.as_slice();
+        for &(j, hj) in hnz {
+            add_row(&mut ph, hj, ps, j);
         }
-        let s = hs.dot(&ph) + r;
-        let innovation = z - hs.dot(&self.xs);
+        let (mut hph, mut hx) = (T::zero(), T::zero());
+        for &(j, hj) in hnz {
+            hph += hj * ph.get(j).copied().unwrap_or_else(T::zero);
+            hx += hj * vget(&self.xs, j);
+        }
+        let s = hph + r;
+        let innovation = z - hx;
         let refused = ScalarUpdate {
             innovation,
             variance: s,
@@ -274,29 +531,21 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         }
         self.health.gated_streak = 0;
         // K = P h / s.
+        let inv_s = T::one() / s;
         let mut k = [T::zero(); N];
         for ((ki, &phi), x) in k
             .iter_mut()
-            .zip(ph.as_slice().iter())
+            .zip(ph.iter())
             .zip(self.xs.as_mut_slice().iter_mut())
         {
-            *ki = phi / s;
+            *ki = phi * inv_s;
             *x += *ki * innovation;
         }
-        // P ← P − K (P h)ᵀ, symmetric by construction; one triangle computed (column j,
-        // rows i ≤ j) and mirrored.
+        // P ← P − K (P h)ᵀ on the upper triangle: column j, rows i ≤ j.
         let ps = self.ps.as_mut_slice();
-        for (j, &phj) in ph.as_slice().iter().enumerate() {
-            for (i, &ki) in k.get(..=j).unwrap_or(&[]).iter().enumerate() {
-                let (ij, ji) = (j * N + i, i * N + j);
-                let v = ps.get(ij).copied().unwrap_or_else(T::zero) - ki * phj;
-                if let Some(e) = ps.get_mut(ij) {
-                    *e = v;
-                }
-                if let Some(e) = ps.get_mut(ji) {
-                    *e = v;
-                }
-            }
+        for (j, &phj) in ph.iter().enumerate() {
+            let col = ps.get_mut(j * N..j * N + j + 1).unwrap_or(&mut []);
+            axpy(col, -phj, &k);
         }
         self.clamp_variances();
         self.health.updates += 1;
@@ -309,25 +558,16 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     }
 
     fn clamp_variances(&mut self) {
+        let ps = self.ps.as_mut_slice();
         for i in 0..N {
-            if mat::get(&self.ps, i, i) < self.floor {
-                mat::set(&mut self.ps, i, i, self.floor);
-                self.health.variance_clamped += 1;
+            if let Some(d) = ps.get_mut(i * N + i) {
+                if *d < self.floor {
+                    *d = self.floor;
+                    self.health.variance_clamped += 1;
+                }
             }
         }
     }
-}
-
-/// `Σ f · v[j]` over the first `count` `(j, f)` of `row`, in order, from zero.
-#[inline(always)]
-fn sparse_dot<T: Real>(row: &[(usize, T)], count: usize, v: &[T]) -> T {
-    let mut acc = T::zero();
-    for &(j, f) in row.get(..count).unwrap_or(&[]) {
-        if let Some(&x) = v.get(j) {
-            acc += f * x;
-        }
-    }
-    acc
 }
 
 #[cfg(test)]
@@ -360,11 +600,69 @@ mod tests {
         let mut kf = Kalman::<f64, 2>::new(&p0, 1e-12);
         kf.update_scalar(&Vector2::new(1.0, 0.0), 1.0, 0.5, 100.0);
         let (x, p) = (kf.state(), kf.covariance());
-        let phi = Matrix2::new(1.0, 0.1, 0.0, 1.0);
-        let q = Matrix2::new(0.01, 0.0, 0.0, 0.02);
+        // Φ = [[1, 0.1], [0, 1]]: row 0 is not the identity's.
+        let mut phi = Transition::<f64, 2, 1>::new([0]);
+        phi.set_row(0, &[1.0, 0.1]);
+        let q = Noise::<f64, 2, 0> {
+            diag: [0.01, 0.02],
+            pairs: [],
+        };
         kf.predict(&phi, &q);
-        assert!((kf.state() - phi * x).norm() < 1e-12);
-        assert!((kf.covariance() - (phi * p * phi.transpose() + q)).norm() < 1e-12);
+        let dense = Matrix2::new(1.0, 0.1, 0.0, 1.0);
+        let qd = Matrix2::new(0.01, 0.0, 0.0, 0.02);
+        assert!((kf.state() - dense * x).norm() < 1e-12);
+        assert!((kf.covariance() - (dense * p * dense.transpose() + qd)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn decay_then_predict_equals_dense_propagation() {
+        // State 2 decays by d and no other row reads it: Φ = Φ_rest · diag(1, 1, d).
+        let p0 = nalgebra::Matrix3::new(4.0, 1.0, 0.5, 1.0, 9.0, 0.3, 0.5, 0.3, 2.0);
+        let mut kf = Kalman::<f64, 3>::new(&p0, 1e-12);
+        kf.update_scalar(&nalgebra::Vector3::new(1.0, 0.0, 1.0), 1.0, 0.5, 100.0);
+        let (x, p) = (kf.state(), kf.covariance());
+        let d = 0.9;
+        let mut phi = Transition::<f64, 3, 1>::new([0]);
+        phi.set_row(0, &[1.0, 0.1, 0.0]);
+        let q = Noise::<f64, 3, 0> {
+            diag: [0.01, 0.02, 0.03],
+            pairs: [],
+        };
+        kf.decay(2, d);
+        kf.predict(&phi, &q);
+        let dense = nalgebra::Matrix3::new(1.0, 0.1, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, d);
+        let qd = nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::from(q.diag));
+        assert!((kf.state() - dense * x).norm() < 1e-12);
+        assert!((kf.covariance() - (dense * p * dense.transpose() + qd)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn predict_with_active_blocks_and_pairs_equals_dense_propagation() {
+        // Four states: rows 0 and 2 not the identity's, a Q pair on (2, 3) and one on (1, 3).
+        let p0 = nalgebra::Matrix4::new(
+            4.0, 1.0, 0.5, 0.2, 1.0, 9.0, 0.3, 0.1, 0.5, 0.3, 2.0, 0.4, 0.2, 0.1, 0.4, 1.0,
+        );
+        let mut kf = Kalman::<f64, 4>::new(&p0, 1e-12);
+        kf.update_scalar(&nalgebra::Vector4::new(1.0, 0.0, 1.0, 0.0), 1.0, 0.5, 100.0);
+        let (x, p) = (kf.state(), kf.covariance());
+        let mut phi = Transition::<f64, 4, 2>::new([0, 2]);
+        phi.set_row(0, &[1.0, 0.1, 0.0, 0.3]);
+        phi.set_row(1, &[0.0, 0.2, 0.9, 0.05]);
+        let q = Noise::<f64, 4, 2> {
+            diag: [0.01, 0.02, 0.03, 0.04],
+            pairs: [(2, 3, 0.005), (1, 3, 0.002)],
+        };
+        kf.predict(&phi, &q);
+        let dense = nalgebra::Matrix4::from_fn(|i, j| phi.get(i, j));
+        let mut qd = nalgebra::Matrix4::from_diagonal(&nalgebra::Vector4::from(q.diag));
+        for (i, j, v) in q.pairs {
+            qd[(i, j)] = v;
+            qd[(j, i)] = v;
+        }
+        assert!((kf.state() - dense * x).norm() < 1e-12);
+        assert!((kf.covariance() - (dense * p * dense.transpose() + qd)).norm() < 1e-12);
+        let ps = kf.scaled_covariance();
+        assert_eq!(ps, ps.transpose());
     }
 
     #[test]
@@ -383,10 +681,13 @@ mod tests {
         let u = kf.update_scalar(&Vector2::new(1.0, 0.0), f32::NAN, 1.0, 5.0);
         assert!(!u.accepted);
         assert_eq!(kf.health.non_finite, 1);
-        kf.predict(
-            &Matrix2::new(f32::INFINITY, 0.0, 0.0, 1.0),
-            &Matrix2::zeros(),
-        );
+        let mut phi = Transition::<f32, 2, 1>::new([0]);
+        phi.set_row(0, &[f32::INFINITY, 0.0]);
+        let q = Noise::<f32, 2, 0> {
+            diag: [0.0; 2],
+            pairs: [],
+        };
+        kf.predict(&phi, &q);
         assert_eq!(kf.health.non_finite, 2);
         assert_eq!(kf.covariance(), Matrix2::identity());
     }

@@ -26,6 +26,7 @@ pub mod kalman;
 pub mod link;
 pub mod mat;
 pub mod model;
+pub mod probe;
 pub mod real;
 pub mod rotation;
 pub mod stats;

@@ -22,6 +22,7 @@
 use crate::augment::{self, Augmentation};
 use crate::earth::{self, Position};
 use crate::flexure::FlexureModel;
+use crate::kalman::{Noise, Transition};
 use crate::mat;
 use crate::real::Real;
 use crate::rotation::skew;
@@ -113,42 +114,24 @@ pub fn nav_dynamics<T: Real>(m: &IntervalMeans<T>) -> SMatrix<T, NAV, NAV> {
 /// (`nav_dynamics`); the sensor and misalignment rows are zero.
 const DYN: usize = 6;
 
-/// `a b` for S×S matrices whose rows from `DYN` on are zero (powers of the dynamics):
-/// only the first `DYN` rows of the product and the first `DYN` rows of `b` contribute.
-/// Terms are summed in the order of the dense product, so the result is the same.
-fn dyn_product<T: Real, const S: usize>(
-    a: &SMatrix<T, S, S>,
-    b: &SMatrix<T, S, S>,
-) -> SMatrix<T, S, S> {
-    // Index loops over the column-major slices ((i, j) at j·S + i), not chunk iterators:
-    // an outlined `chunks_exact` divides by a run-time chunk size, a panic path the board
-    // image must not link.
-    let mut p = SMatrix::<T, S, S>::zeros();
-    let (av, bv) = (a.as_slice(), b.as_slice());
-    let at = |v: &[T], idx: usize| v.get(idx).copied().unwrap_or_else(T::zero);
-    let pv = p.as_mut_slice();
-    for j in 0..S {
-        for i in 0..DYN {
-            let mut acc = T::zero();
-            for k in 0..DYN {
-                acc += at(av, k * S + i) * at(bv, j * S + k);
-            }
-            if let Some(e) = pv.get_mut(j * S + i) {
-                *e = acc;
-            }
-        }
-    }
-    p
-}
+/// Rows of Φ that are not the identity's: δv, ψ (`DYN`) and the six flexure states.
+pub const ACTIVE: usize = DYN + 6;
 
-/// Continuous-time dynamics of all `S` states: the navigation block, the augmented
-/// blocks' columns in the δv and ψ rows; the flexure rows are left to its AR model.
+/// The transition Φ over one filter period, as the filter takes it.
+pub type Phi<T, const S: usize> = Transition<T, S, ACTIVE>;
+
+/// The process noise Q over one filter period, as the filter takes it: its diagonal and
+/// the flexure blocks' off-diagonal (θ, θ̇) pairs.
+pub type Qd<T, const S: usize> = Noise<T, S, 3>;
+
+/// Continuous-time dynamics of the rows with dynamics (δv and ψ) over all `S` states:
+/// the navigation block, then the augmented blocks' columns.
 pub fn dynamics<T: Real, const S: usize>(
     m: &IntervalMeans<T>,
     aug: &Augmentation<T>,
-) -> SMatrix<T, S, S> {
+) -> SMatrix<T, DYN, S> {
     let nav = nav_dynamics(m);
-    let mut f = SMatrix::<T, S, S>::zeros();
+    let mut f = SMatrix::<T, DYN, S>::zeros();
     for j in 0..NAV {
         for i in 0..DYN {
             mat::set(&mut f, i, j, mat::get(&nav, i, j));
@@ -160,37 +143,104 @@ pub fn dynamics<T: Real, const S: usize>(
 
 /// Transition matrix Φ over one filter period `t` (s): third-order Taylor series of
 /// the navigation and augmented blocks (the bias-to-velocity path runs through three
-/// blocks), the exact discrete AR model on the flexure block.
+/// blocks), the exact discrete AR model on the flexure block; every other row is the
+/// identity's. Only the rows with dynamics are computed, and their products only over
+/// the columns where `F t` is not zero (`(F t)²` and `(F t)³` have no others).
 pub fn transition<T: Real, const S: usize>(
     m: &IntervalMeans<T>,
     flex: &FlexureModel<T>,
     aug: &Augmentation<T>,
     t: T,
-) -> StateMat<T, S> {
+) -> Phi<T, S> {
     let ft = dynamics::<T, S>(m, aug) * t;
-    let ft2 = dyn_product(&ft, &ft);
-    let ft3 = dyn_product(&ft2, &ft);
-    // Φ = I + F t + (F t)²/2 + (F t)³/6, element by element (column-major slices:
-    // (i, j) at j·rows + i).
-    let (half, sixth) = (T::of(0.5), T::of(1.0 / 6.0));
-    let mut phi = StateMat::<T, S>::zeros();
-    let (f1, f2, f3) = (ft.as_slice(), ft2.as_slice(), ft3.as_slice());
-    let at = |v: &[T], idx: usize| v.get(idx).copied().unwrap_or_else(T::zero);
-    let pv = phi.as_mut_slice();
+    // Columns of F t's rows that are not zero (δv and ψ's own always listed).
+    let mut cols = [0usize; S];
+    let mut n = 0;
     for j in 0..S {
-        for i in 0..S {
-            let idx = j * S + i;
-            let id = if i == j { T::one() } else { T::zero() };
-            if let Some(p) = pv.get_mut(idx) {
-                *p = id + at(f1, idx) + at(f2, idx) * half + at(f3, idx) * sixth;
+        if j < DYN || (0..DYN).any(|i| mat::get(&ft, i, j) != T::zero()) {
+            if let Some(c) = cols.get_mut(n) {
+                *c = j;
             }
+            n += 1;
         }
     }
+    let cols = cols.get(..n).unwrap_or(&[]);
+    // (F t)² and (F t)³ on those columns: only F's first `DYN` rows are not zero, so
+    // column j of a product is Σ_k (column k of the left factor's first DYN columns) ·
+    // F t(k, j), k ascending (the dense product's order). Columns as arrays: the board's
+    // size-optimized image would otherwise bounds-check every term.
+    let column = |m: &SMatrix<T, DYN, S>, j: usize| -> [T; DYN] {
+        let mut c = [T::zero(); DYN];
+        if let Some(src) = m.as_slice().get(j * DYN..j * DYN + DYN) {
+            c.copy_from_slice(src);
+        }
+        c
+    };
+    let mut ft_cols = [[T::zero(); DYN]; DYN];
+    for (k, c) in ft_cols.iter_mut().enumerate() {
+        *c = column(&ft, k);
+    }
+    let times_ft = |left: &[[T; DYN]; DYN], j: usize| -> [T; DYN] {
+        let mut acc = [T::zero(); DYN];
+        for (lk, &fkj) in left.iter().zip(column(&ft, j).iter()) {
+            for (a, &l) in acc.iter_mut().zip(lk.iter()) {
+                *a += l * fkj;
+            }
+        }
+        acc
+    };
+    let mut f2 = SMatrix::<T, DYN, S>::zeros();
+    for &j in cols {
+        let c = times_ft(&ft_cols, j);
+        if let Some(dst) = f2.as_mut_slice().get_mut(j * DYN..j * DYN + DYN) {
+            dst.copy_from_slice(&c);
+        }
+    }
+    let mut f2_cols = [[T::zero(); DYN]; DYN];
+    for (k, c) in f2_cols.iter_mut().enumerate() {
+        *c = column(&f2, k);
+    }
+    let mut f3 = SMatrix::<T, DYN, S>::zeros();
+    for &j in cols {
+        let c = times_ft(&f2_cols, j);
+        if let Some(dst) = f3.as_mut_slice().get_mut(j * DYN..j * DYN + DYN) {
+            dst.copy_from_slice(&c);
+        }
+    }
+    let mut index = [0usize; ACTIVE];
+    for (r, e) in index.iter_mut().enumerate() {
+        *e = if r < DYN { r } else { TH + (r - DYN) };
+    }
+    let mut phi = Phi::<T, S>::new(index);
+    let (half, sixth) = (T::of(0.5), T::of(1.0 / 6.0));
+    for i in 0..DYN {
+        let mut row = [T::zero(); S];
+        for &j in cols {
+            let id = if i == j { T::one() } else { T::zero() };
+            if let Some(e) = row.get_mut(j) {
+                *e = id
+                    + mat::get(&ft, i, j)
+                    + mat::get(&f2, i, j) * half
+                    + mat::get(&f3, i, j) * sixth;
+            }
+        }
+        phi.set_row(i, &row);
+    }
+    // The flexure rows: θ_k (row DYN + k) and θ̇_k (row DYN + 3 + k) of the AR(2) model.
     for (axis, ar) in flex.axes.iter().enumerate() {
         let a = ar.transition(flex.period_s);
-        mat::set_pair(&mut phi, TH + axis, THD + axis, &a);
+        let (th, thd) = (TH + axis, THD + axis);
+        for (r, row) in [(DYN + axis, 0), (DYN + 3 + axis, 1)] {
+            let mut dense = [T::zero(); S];
+            if let Some(e) = dense.get_mut(th) {
+                *e = mat::get(&a, row, 0);
+            }
+            if let Some(e) = dense.get_mut(thd) {
+                *e = mat::get(&a, row, 1);
+            }
+            phi.set_row(r, &dense);
+        }
     }
-    augment::set_gauss_markov_transition(&mut phi, aug, t);
     phi
 }
 
@@ -199,8 +249,11 @@ pub fn process_noise<T: Real, const S: usize>(
     noise: &ProcessNoise<T>,
     flex: &FlexureModel<T>,
     t: T,
-) -> StateMat<T, S> {
-    let mut q = StateMat::<T, S>::zeros();
+) -> Qd<T, S> {
+    let mut q = Qd::<T, S> {
+        diag: [T::zero(); S],
+        pairs: [(0, 0, T::zero()); 3],
+    };
     let diag = [
         (V, noise.accel_vrw),
         (PSI, noise.gyro_arw),
@@ -210,13 +263,22 @@ pub fn process_noise<T: Real, const S: usize>(
     ];
     for (block, density) in diag {
         for k in 0..3 {
-            mat::set(&mut q, block + k, block + k, density * density * t);
+            if let Some(e) = q.diag.get_mut(block + k) {
+                *e = density * density * t;
+            }
         }
     }
-    for (axis, ar) in flex.axes.iter().enumerate() {
+    for ((axis, ar), pair) in flex.axes.iter().enumerate().zip(q.pairs.iter_mut()) {
         let g = ar.noise_gain(flex.period_s);
         let qb = g * g.transpose() * (ar.sigma_rad * ar.sigma_rad);
-        mat::set_pair(&mut q, TH + axis, THD + axis, &qb);
+        let (th, thd) = (TH + axis, THD + axis);
+        if let Some(e) = q.diag.get_mut(th) {
+            *e = mat::get(&qb, 0, 0);
+        }
+        if let Some(e) = q.diag.get_mut(thd) {
+            *e = mat::get(&qb, 1, 1);
+        }
+        *pair = (th, thd, mat::get(&qb, 0, 1));
     }
     q
 }

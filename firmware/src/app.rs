@@ -47,6 +47,7 @@ use flexcal_core::link::{
     StatusMsg, MAX_FRAME_LEN,
 };
 use flexcal_core::model::N;
+use flexcal_core::probe::{self, Phase};
 
 use crate::imu::ImuSource;
 use crate::replay::ReplaySource;
@@ -309,6 +310,7 @@ impl App {
 
     /// Feeds one received byte; frames to send go to `out` (one call per frame).
     pub fn push_byte<W: FnMut(&[u8])>(&mut self, byte: u8, out: &mut W) {
+        let _phase = probe::enter(Phase::Link);
         match self.rx.push(byte) {
             Some(Ok(r)) => self.handle(&r.frame.message, out),
             Some(Err(_e)) => {
@@ -529,6 +531,7 @@ impl App {
         for _ in reports {
             self.counters.master_updates = self.counters.master_updates.wrapping_add(1);
             if let Some(e) = self.engine.as_ref() {
+                let _phase = probe::enter(Phase::Identifier);
                 let th = e.estimates().flexure;
                 for (id, x) in self.ident.iter_mut().zip(th.iter()) {
                     id.push(*x);

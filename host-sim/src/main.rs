@@ -28,6 +28,8 @@ enum Command {
     Identify(cmd::identify::Args),
     /// Replay a recording through the board firmware in QEMU: summary.json, estimates.csv.
     Replay(cmd::replay::Args),
+    /// The board's cost in QEMU -icount: instructions per master update by phase, stack, flash.
+    BenchBoard(cmd::bench_board::Args),
     /// Find structure left in the residuals, name the effect, add it: diagnosis.json, report.md.
     Diagnose(cmd::diagnose::Args),
 }
@@ -42,6 +44,7 @@ fn main() -> std::process::ExitCode {
         Command::PaperFigures(a) => cmd::paper_figures::run(&a),
         Command::Replay(a) => cmd::replay::run(&a),
         Command::Diagnose(a) => cmd::diagnose::run(&a),
+        Command::BenchBoard(a) => cmd::bench_board::run(&a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -26,7 +26,9 @@ use flexcal_firmware::app::App;
 use flexcal_sim::calib::config::CalibConfig;
 use flexcal_sim::calib::run::{run, CalibResult, Precision};
 use flexcal_sim::cmd::common::{ModelArgs, ScenarioArgs};
-use flexcal_sim::cmd::replay::{encode_frames, run_qemu, stream_messages, QemuRun, Transport};
+use flexcal_sim::cmd::replay::{
+    encode_frames, run_qemu, stream_messages, QemuRun, Timing, Transport,
+};
 use flexcal_sim::recording::{read_recording, write_recording, Recording};
 use flexcal_sim::sim::{simulate, Scenario};
 use std::path::{Path, PathBuf};
@@ -59,7 +61,7 @@ fn moored(duration_s: f64, dir: &Path) -> (Recording, CalibConfig) {
 
 fn replay(rec: &Recording, cfg: &CalibConfig, bytes: &[u8], t: Transport, dir: &Path) -> QemuRun {
     let _ = (rec, cfg);
-    let run = run_qemu(image(), bytes, t, false, QEMU_TIMEOUT, dir).expect("QEMU run");
+    let run = run_qemu(image(), bytes, t, Timing::Wall, QEMU_TIMEOUT, dir).expect("QEMU run");
     assert_eq!(
         run.exit_code,
         Some(0),
@@ -421,6 +423,7 @@ fn paper_gyro_scale_factor_in_qemu_matches_calibrate_f32() {
         status_every: 1000,
         transport: Transport::Semihosting,
         icount: false,
+        profile: false,
         timeout_s: QEMU_TIMEOUT.as_secs(),
         model: ModelArgs {
             no_dynamic_lever_arm: false,

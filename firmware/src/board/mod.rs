@@ -25,6 +25,7 @@ use cortex_m_rt::{entry, exception, ExceptionFrame};
 
 mod hw;
 mod logger;
+mod profile;
 mod replay;
 mod semihost;
 mod serial;

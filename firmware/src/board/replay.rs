@@ -20,9 +20,11 @@
 //! time by 1 ns, so the counts are deterministic (conversion in `docs/firmware.md`).
 
 use cortex_m::peripheral::{syst::SystClkSource, SYST};
+use flexcal_core::probe::Phase;
 use flexcal_firmware::app::App;
 
 use super::hw;
+use super::profile;
 use super::semihost::{self, HostFile};
 use super::serial::Serial;
 
@@ -143,11 +145,17 @@ pub fn run(syst: Option<SYST>) -> ! {
 
 fn serve<P: Port>(port: &mut P, syst: Option<SYST>) -> ! {
     let mut syst = syst;
+    // Profiling takes SysTick for its interrupt: the per-byte timing below is then not kept.
+    let profiling = semihost::has_arg(b"profile");
     if let Some(s) = syst.as_mut() {
-        s.set_clock_source(SystClkSource::Core);
-        s.set_reload(SYST_MASK);
-        s.clear_current();
-        s.enable_counter();
+        if profiling {
+            profile::start(s);
+        } else {
+            s.set_clock_source(SystClkSource::Core);
+            s.set_reload(SYST_MASK);
+            s.clear_current();
+            s.enable_counter();
+        }
     }
     let mut app = App::new();
     // "Ready": the host waits for this frame before it sends.
@@ -229,8 +237,15 @@ fn serve<P: Port>(port: &mut P, syst: Option<SYST>) -> ! {
     for fit in app.flexure_fit() {
         semihost::line_kv("flexure-ar-order", fit.map_or(99, |f| f.order as u64));
     }
-    semihost::line_kv("systick-busy", busy_ticks);
-    semihost::line_kv("systick-max-per-byte", u64::from(max_ticks));
+    if profiling {
+        semihost::line_kv("profile-period-ticks", u64::from(profile::PERIOD_TICKS));
+        for phase in Phase::ALL {
+            semihost::line_kv_named("profile-", phase.name(), u64::from(profile::samples(phase)));
+        }
+    } else {
+        semihost::line_kv("systick-busy", busy_ticks);
+        semihost::line_kv("systick-max-per-byte", u64::from(max_ticks));
+    }
     semihost::line_kv("stack-high-water-bytes", hw::stack_high_water() as u64);
     semihost::line_kv("stack-capacity-bytes", hw::stack_capacity() as u64);
     semihost::line_kv("app-state-bytes", core::mem::size_of::<App>() as u64);

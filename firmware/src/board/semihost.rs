@@ -16,6 +16,11 @@ pub fn line(text: &str) {
 /// Writes `key value` and a newline to the host's stdout (`value` in decimal, no
 /// `core::fmt`).
 pub fn line_kv(key: &str, value: u64) {
+    line_kv_named("", key, value);
+}
+
+/// A `key value` line whose key is `prefix` followed by `name` (e.g. `profile-` + a phase).
+pub fn line_kv_named(prefix: &str, name: &str, value: u64) {
     let mut digits = [0u8; 20];
     let mut n = value;
     let mut i = digits.len();
@@ -30,7 +35,8 @@ pub fn line_kv(key: &str, value: u64) {
         }
     }
     if let Ok(mut out) = hio::hstdout() {
-        let _ = out.write_all(key.as_bytes());
+        let _ = out.write_all(prefix.as_bytes());
+        let _ = out.write_all(name.as_bytes());
         let _ = out.write_all(b" ");
         let _ = out.write_all(digits.get(i..).unwrap_or(&[]));
         let _ = out.write_all(b"\n");

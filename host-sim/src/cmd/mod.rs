@@ -1,5 +1,6 @@
 //! The subcommands of `flexcal`, one module each.
 
+pub mod bench_board;
 pub mod calibrate;
 pub mod common;
 pub mod diagnose;

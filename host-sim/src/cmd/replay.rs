@@ -67,6 +67,10 @@ pub struct Args {
     /// Run QEMU with `-icount shift=0` (deterministic virtual time, for the cost figures).
     #[arg(long)]
     pub icount: bool,
+    /// With `--icount`: run the board's sampling profiler instead of timing each byte
+    /// (`profile-*` samples per phase in `summary.json`, the split printed).
+    #[arg(long, requires = "icount")]
+    pub profile: bool,
     /// Wall-clock limit for the QEMU run (s).
     #[arg(long, default_value_t = 600)]
     pub timeout_s: u64,
@@ -143,6 +147,22 @@ pub enum Transport {
     Semihosting,
 }
 
+/// How QEMU's clock runs and what the firmware measures with it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Timing {
+    /// Real time; the firmware's SysTick figures are not meaningful.
+    Wall,
+    /// `-icount shift=0`: one nanosecond of virtual time per instruction; the firmware
+    /// times each received byte (`systick-busy`).
+    Icount,
+    /// `-icount shift=0` and the firmware's sampling profiler (`profile-*` per phase).
+    Profile,
+}
+
+/// The board's core clock in QEMU's virtual time: SysTick ticks per instruction under
+/// `-icount shift=0` (168 MHz, 1 ns per instruction).
+pub const TICKS_PER_INSTRUCTION: f64 = 0.168;
+
 /// What a QEMU run gave back.
 #[derive(Debug)]
 pub struct QemuRun {
@@ -218,7 +238,7 @@ pub fn run_qemu(
     elf: &Path,
     bytes: &[u8],
     transport: Transport,
-    icount: bool,
+    timing: Timing,
     timeout: Duration,
     work_dir: &Path,
 ) -> Result<QemuRun, String> {
@@ -239,8 +259,11 @@ pub fn run_qemu(
         "-nographic",
     ])
     .args(["-monitor", "none"]);
-    if icount {
+    if timing != Timing::Wall {
         cmd.args(["-icount", "shift=0"]);
+    }
+    if timing == Timing::Profile {
+        semihosting.push_str(",arg=profile");
     }
     let listener = match transport {
         Transport::Uart => {
@@ -596,7 +619,7 @@ pub fn replay(a: &Args) -> Result<Replayed, String> {
         &elf,
         &bytes,
         a.transport,
-        a.icount,
+        a.timing(),
         Duration::from_secs(a.timeout_s),
         &a.out,
     )?;
@@ -631,12 +654,60 @@ pub fn replay(a: &Args) -> Result<Replayed, String> {
     })
 }
 
+impl Args {
+    /// The clock the run asks for.
+    pub fn timing(&self) -> Timing {
+        match (self.icount, self.profile) {
+            (false, _) => Timing::Wall,
+            (true, false) => Timing::Icount,
+            (true, true) => Timing::Profile,
+        }
+    }
+}
+
+/// Instructions per master update of an `--icount` run, whole (`Timing::Icount`) or per
+/// profiler phase (`Timing::Profile`: `(phase, instructions)`, the idle loop left out).
+pub fn cost_per_update(run: &QemuRun) -> Option<Vec<(String, f64)>> {
+    let updates = run.metric("master-updates").filter(|&n| n > 0)? as f64;
+    let per_update = |ticks: f64| ticks / TICKS_PER_INSTRUCTION / updates;
+    if let Some(busy) = run.metric("systick-busy") {
+        return Some(vec![("total".to_string(), per_update(busy as f64))]);
+    }
+    let period = run.metric("profile-period-ticks")? as f64;
+    let phases: Vec<(String, f64)> = run
+        .metrics()
+        .into_iter()
+        .filter_map(|(k, v)| {
+            let name = k.strip_prefix("profile-")?;
+            (name != "period-ticks" && name != "idle")
+                .then(|| (name.to_string(), per_update(v as f64 * period)))
+        })
+        .collect();
+    Some(phases)
+}
+
 /// Runs `flexcal replay`.
 pub fn run(a: &Args) -> Result<(), String> {
     let progress = crate::cmd::progress::Progress::start("replaying through the firmware in QEMU");
     let r = replay(a)?;
     drop(progress);
-    write_outputs(a, &r)
+    write_outputs(a, &r)?;
+    if a.icount {
+        if let Some(cost) = cost_per_update(&r.qemu) {
+            let sum: f64 = cost.iter().map(|(_, v)| v).sum();
+            let parts: Vec<String> = cost
+                .iter()
+                .map(|(k, v)| format!("{k} {:.1}k", v / 1e3))
+                .collect();
+            println!(
+                "  instructions per master update: {} (sum {:.1}k); stack high-water {} B",
+                parts.join(", "),
+                sum / 1e3,
+                r.qemu.metric("stack-high-water-bytes").unwrap_or(0)
+            );
+        }
+    }
+    Ok(())
 }
 
 /// Writes `summary.json` and `estimates.csv` of a replay into `a.out` and prints the
@@ -687,6 +758,7 @@ pub fn write_outputs(a: &Args, r: &Replayed) -> Result<(), String> {
             serde_json::json!({
                 "wall_s": qemu.wall.as_secs_f64(),
                 "icount": a.icount,
+                "profile": a.profile,
                 "firmware": qemu.metrics(),
             }),
         );
