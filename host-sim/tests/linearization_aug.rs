@@ -19,7 +19,7 @@ use flexcal_sim::sim::scenario::MotionSpec;
 use flexcal_sim::sim::{slave_truth, Fixed, SlaveTruth};
 use nalgebra::{SVector, Vector3};
 
-const S: usize = N + 4;
+const S: usize = N + 6;
 
 fn motion() -> MotionSpec {
     MotionSpec {
