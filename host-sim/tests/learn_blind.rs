@@ -80,9 +80,8 @@ fn learned_model_calibrates_blind_recordings_consistently() {
             default_over += 1;
         }
         for e in param_errors(&ModelParams::from_config(&l.learned_config), &l.values, &sc) {
-            match e.param {
-                Param::FlexureOmega(_) => omega_errors.push(e.relative_error.abs()),
-                _ => {}
+            if let Param::FlexureOmega(_) = e.param {
+                omega_errors.push(e.relative_error.abs());
             }
         }
     }
