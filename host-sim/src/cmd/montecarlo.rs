@@ -189,6 +189,20 @@ pub fn ratio_figure(scenario: &str, agg: &Aggregate, runs: usize) -> Figure {
     }
 }
 
+/// The verdict of a Monte Carlo (`crate::verdict::ensemble`): its runs' NEES against the
+/// band of the mean, and each state's RMS over mean σ.
+pub fn ensemble_verdict(runs: &[RunResult], agg: &Aggregate) -> crate::verdict::Verdict {
+    let ratios: Vec<(&str, f64)> = NAMES
+        .iter()
+        .enumerate()
+        .map(|(i, n)| (*n, agg.rms[i] / agg.mean_sigma[i]))
+        .collect();
+    let seeds_nees: Vec<(u64, f64)> = runs.iter().map(|r| (r.seed, r.nees)).collect();
+    crate::verdict::Verdict {
+        findings: crate::verdict::ensemble::check(&seeds_nees, agg.nees_band, &ratios),
+    }
+}
+
 /// Runs `flexcal montecarlo`.
 pub fn run(a: &Args) -> Result<(), String> {
     if a.runs == 0 {
@@ -235,13 +249,7 @@ pub fn run(a: &Args) -> Result<(), String> {
         "nis_mean": runs.iter().map(|r| r.nis).sum::<f64>() / runs.len().max(1) as f64,
         "per_run": runs.iter().map(|r| json!({"seed": r.seed, "nees": r.nees, "nis_mean": r.nis, "error": r.error, "sigma": r.sigma})).collect::<Vec<_>>(),
     });
-    let ratios: Vec<(&str, f64)> = (0..9)
-        .map(|i| (NAMES[i], agg.rms[i] / agg.mean_sigma[i]))
-        .collect();
-    let seeds_nees: Vec<(u64, f64)> = runs.iter().map(|r| (r.seed, r.nees)).collect();
-    let verdict = crate::verdict::Verdict {
-        findings: crate::verdict::ensemble::check(&seeds_nees, agg.nees_band, &ratios),
-    };
+    let verdict = ensemble_verdict(&runs, &agg);
     let mut doc = doc;
     verdict.insert_into(&mut doc);
     let path = a.out.join("montecarlo.json");

@@ -7,7 +7,9 @@
 //! (`crate::learn::truth`). The verdict (PASS/WARN/FAIL, `crate::verdict::ensemble`)
 //! judges the learned arm: what a user with no configuration gets.
 
-use super::montecarlo::{aggregate, ratio_figure, score_run, Aggregate, Args, RunResult, NAMES};
+use super::montecarlo::{
+    aggregate, ensemble_verdict, ratio_figure, score_run, Aggregate, Args, RunResult, NAMES,
+};
 use crate::calib::residuals::channel_residuals;
 use crate::cmd::TOOL_VERSION;
 use crate::learn::params::ModelParams;
@@ -178,15 +180,7 @@ pub fn run(a: &Args) -> Result<(), String> {
         })).collect::<Vec<_>>(),
     });
     // The verdict judges the learned model (what a user with no configuration gets).
-    let ratios: Vec<(&str, f64)> = NAMES
-        .iter()
-        .enumerate()
-        .map(|(i, n)| (*n, agg_l.rms[i] / agg_l.mean_sigma[i]))
-        .collect();
-    let seeds_nees: Vec<(u64, f64)> = learned.iter().map(|r| (r.seed, r.nees)).collect();
-    let verdict = crate::verdict::Verdict {
-        findings: crate::verdict::ensemble::check(&seeds_nees, agg_l.nees_band, &ratios),
-    };
+    let verdict = ensemble_verdict(&learned, &agg_l);
     let mut doc = doc;
     verdict.insert_into(&mut doc);
     let path = a.out.join("montecarlo.json");
