@@ -11,7 +11,7 @@
 use flexcal_core::earth::{self, Position};
 use flexcal_core::engine::{
     Engine, EngineConfig, EngineError, ImuIncrement, InitialSigma, MasterNav, Matching,
-    MeasurementNoise, PENDING_DEPTH,
+    MeasurementNoise, StepReports, PENDING_DEPTH,
 };
 use flexcal_core::flexure::{ArAxis, FlexureModel};
 use flexcal_core::model::{LeverBending, ProcessNoise};
@@ -101,13 +101,18 @@ fn run_span(engine: &mut Engine<f64>, first: usize, seconds: f64, q_master: Unit
     let n = (seconds * 200.0) as usize;
     for i in first..=first + n {
         let t = i as f64 * 0.005;
-        engine.push_imu(imu_at(t, 0.005)).unwrap();
+        engine
+            .push_imu(imu_at(t, 0.005), &mut StepReports::new())
+            .unwrap();
         if i % 2 == 0 {
             engine
-                .push_master(MasterNav {
-                    q_bm_n: q_master,
-                    ..master_at(t)
-                })
+                .push_master(
+                    MasterNav {
+                        q_bm_n: q_master,
+                        ..master_at(t)
+                    },
+                    &mut StepReports::new(),
+                )
                 .unwrap();
         }
     }
@@ -150,21 +155,29 @@ fn a_stationary_pair_calibrates_to_zero_errors() {
 #[test]
 fn refuses_non_finite_and_backward_imu_samples() {
     let mut e = Engine::<f64>::new(config()).unwrap();
-    e.push_imu(imu_at(0.0, 0.005)).unwrap();
+    e.push_imu(imu_at(0.0, 0.005), &mut StepReports::new())
+        .unwrap();
     let mut bad = imu_at(0.005, 0.005);
     bad.dv_b.x = f64::NAN;
-    assert_eq!(e.push_imu(bad).unwrap_err(), EngineError::NonFinite);
-    e.push_imu(imu_at(0.005, 0.005)).unwrap();
     assert_eq!(
-        e.push_imu(imu_at(0.005, 0.005)).unwrap_err(),
+        e.push_imu(bad, &mut StepReports::new()).unwrap_err(),
+        EngineError::NonFinite
+    );
+    e.push_imu(imu_at(0.005, 0.005), &mut StepReports::new())
+        .unwrap();
+    assert_eq!(
+        e.push_imu(imu_at(0.005, 0.005), &mut StepReports::new())
+            .unwrap_err(),
         EngineError::ImuTimeNotIncreasing
     );
     assert_eq!(
-        e.push_imu(imu_at(0.001, 0.005)).unwrap_err(),
+        e.push_imu(imu_at(0.001, 0.005), &mut StepReports::new())
+            .unwrap_err(),
         EngineError::ImuTimeNotIncreasing
     );
     // The engine goes on after a refusal.
-    e.push_imu(imu_at(0.010, 0.005)).unwrap();
+    e.push_imu(imu_at(0.010, 0.005), &mut StepReports::new())
+        .unwrap();
     assert_eq!(e.counters().imu_samples, 2);
 }
 
@@ -173,32 +186,44 @@ fn refuses_out_of_order_and_counts_stale_masters() {
     let mut e = Engine::<f64>::new(config()).unwrap();
     run_static(&mut e, 2.0);
     assert_eq!(
-        e.push_master(master_at(1.0)).unwrap_err(),
+        e.push_master(master_at(1.0), &mut StepReports::new())
+            .unwrap_err(),
         EngineError::MasterOutOfOrder
     );
     assert_eq!(e.counters().master_out_of_order, 1);
     let mut nan = master_at(2.5);
     nan.v_n.y = f64::INFINITY;
-    assert_eq!(e.push_master(nan).unwrap_err(), EngineError::NonFinite);
+    assert_eq!(
+        e.push_master(nan, &mut StepReports::new()).unwrap_err(),
+        EngineError::NonFinite
+    );
     // A message newer than the last, but older than the alignment buffer, is stale.
     let mut e2 = Engine::<f64>::new(config()).unwrap();
-    e2.push_imu(imu_at(0.0, 0.005)).unwrap();
-    e2.push_imu(imu_at(0.005, 0.005)).unwrap();
-    e2.push_master(master_at(0.0)).unwrap();
+    e2.push_imu(imu_at(0.0, 0.005), &mut StepReports::new())
+        .unwrap();
+    e2.push_imu(imu_at(0.005, 0.005), &mut StepReports::new())
+        .unwrap();
+    e2.push_master(master_at(0.0), &mut StepReports::new())
+        .unwrap();
     for i in 2..400 {
-        e2.push_imu(imu_at(i as f64 * 0.005, 0.005)).unwrap();
+        e2.push_imu(imu_at(i as f64 * 0.005, 0.005), &mut StepReports::new())
+            .unwrap();
     }
-    e2.push_master(master_at(0.1)).unwrap();
+    e2.push_master(master_at(0.1), &mut StepReports::new())
+        .unwrap();
     assert_eq!(e2.counters().master_stale, 1);
 }
 
 #[test]
 fn too_many_waiting_masters_drop_the_oldest_and_say_so() {
     let mut e = Engine::<f64>::new(config()).unwrap();
-    e.push_imu(imu_at(0.0, 0.005)).unwrap();
+    e.push_imu(imu_at(0.0, 0.005), &mut StepReports::new())
+        .unwrap();
     let mut last = Ok(());
     for k in 0..=PENDING_DEPTH {
-        last = e.push_master(master_at(1.0 + k as f64 * 0.01)).map(|_| ());
+        last = e
+            .push_master(master_at(1.0 + k as f64 * 0.01), &mut StepReports::new())
+            .map(|_| ());
     }
     assert_eq!(last.unwrap_err(), EngineError::PendingOverflow);
     assert_eq!(e.counters().master_dropped, 1);
@@ -258,7 +283,7 @@ proptest! {
         for i in inputs {
             match i {
                 Input::Imu(t, v) => {
-                    let _ = e.push_imu(ImuIncrement { t, dtheta_b: Vector3::new(v[0], v[1], v[2]) * 1e-3, dv_b: Vector3::new(v[3], v[4], v[5]) * 1e-2 });
+                    let _ = e.push_imu(ImuIncrement { t, dtheta_b: Vector3::new(v[0], v[1], v[2]) * 1e-3, dv_b: Vector3::new(v[3], v[4], v[5]) * 1e-2 }, &mut StepReports::new());
                 }
                 Input::Master(t, q, v, r) => {
                     let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]));
@@ -268,7 +293,7 @@ proptest! {
                         v_n: Vector3::from(v),
                         pos: Position { lat_rad: LAT, lon_rad: 0.0, height_m: 0.0 },
                         w_ib_bm: r.then(|| Vector3::new(0.01, 0.0, 0.0)),
-                    });
+                    }, &mut StepReports::new());
                 }
             }
         }

@@ -158,8 +158,12 @@ impl BoardEngine {
 
     /// See [`Engine::push_imu`].
     #[inline(always)]
-    pub fn push_imu(&mut self, s: ImuIncrement<f32>) -> Result<StepReports<f32>, EngineError> {
-        on_engine!(self, e => e.push_imu(s))
+    pub fn push_imu(
+        &mut self,
+        s: ImuIncrement<f32>,
+        reports: &mut StepReports<f32>,
+    ) -> Result<(), EngineError> {
+        on_engine!(self, e => e.push_imu(s, reports))
     }
 
     /// See [`Engine::push_master`].
@@ -167,14 +171,15 @@ impl BoardEngine {
     pub fn push_master(
         &mut self,
         m: flexcal_core::engine::MasterNav<f32>,
-    ) -> Result<StepReports<f32>, EngineError> {
-        on_engine!(self, e => e.push_master(m))
+        reports: &mut StepReports<f32>,
+    ) -> Result<(), EngineError> {
+        on_engine!(self, e => e.push_master(m, reports))
     }
 
     /// See [`Engine::flush`].
     #[inline(always)]
-    pub fn flush(&mut self) -> StepReports<f32> {
-        on_engine!(self, e => e.flush())
+    pub fn flush(&mut self, reports: &mut StepReports<f32>) {
+        on_engine!(self, e => e.flush(reports))
     }
 
     /// See [`Engine::estimates`].
@@ -443,11 +448,12 @@ impl App {
                     self.counters.no_engine = self.counters.no_engine.wrapping_add(1);
                     return;
                 };
-                match engine.push_master(m.to_engine()) {
-                    Ok(reports) => self.on_reports(&reports, out),
-                    Err(_) => {
-                        self.counters.master_refused = self.counters.master_refused.wrapping_add(1);
-                    }
+                let mut reports = StepReports::new();
+                let pushed = engine.push_master(m.to_engine(), &mut reports);
+                // Matches made before an overflow refusal are reported all the same.
+                self.on_reports(&reports, out);
+                if pushed.is_err() {
+                    self.counters.master_refused = self.counters.master_refused.wrapping_add(1);
                 }
             }
             Message::End(_) => self.end(out),
@@ -499,7 +505,8 @@ impl App {
         self.counters.ends = self.counters.ends.wrapping_add(1);
         self.drain_replay(out);
         if let Some(engine) = self.engine.as_mut() {
-            let reports = engine.flush();
+            let mut reports = StepReports::new();
+            engine.flush(&mut reports);
             self.on_reports(&reports, out);
         }
         self.send_estimates(out);
@@ -518,8 +525,9 @@ impl App {
             self.counters.no_engine = self.counters.no_engine.wrapping_add(1);
             return;
         };
-        match engine.push_imu(inc) {
-            Ok(reports) => self.on_reports(&reports, out),
+        let mut reports = StepReports::new();
+        match engine.push_imu(inc, &mut reports) {
+            Ok(()) => self.on_reports(&reports, out),
             Err(_) => self.counters.imu_refused = self.counters.imu_refused.wrapping_add(1),
         }
     }
@@ -734,20 +742,34 @@ mod tests {
     fn direct(msgs: &[Message]) -> (EstimatesMsg, u32) {
         let mut engine: Option<Engine<f32>> = None;
         let mut updates = 0u32;
+        let mut r = StepReports::new();
         for m in msgs {
             match m {
                 Message::Config(c) => engine = Some(Engine::new(c.to_engine()).unwrap()),
                 Message::ImuSample(s) => {
-                    if let Ok(r) = engine.as_mut().unwrap().push_imu(s.to_engine()) {
+                    if engine
+                        .as_mut()
+                        .unwrap()
+                        .push_imu(s.to_engine(), &mut r)
+                        .is_ok()
+                    {
                         updates += r.len() as u32;
                     }
                 }
                 Message::MasterNav(s) => {
-                    if let Ok(r) = engine.as_mut().unwrap().push_master(s.to_engine()) {
+                    if engine
+                        .as_mut()
+                        .unwrap()
+                        .push_master(s.to_engine(), &mut r)
+                        .is_ok()
+                    {
                         updates += r.len() as u32;
                     }
                 }
-                Message::End(_) => updates += engine.as_mut().unwrap().flush().len() as u32,
+                Message::End(_) => {
+                    engine.as_mut().unwrap().flush(&mut r);
+                    updates += r.len() as u32;
+                }
                 _ => {}
             }
         }
@@ -940,6 +962,7 @@ mod tests {
 
         // The same messages straight into Engine<f32, 33>: every report bit-identical.
         let mut direct: Option<Engine<f32, FIRMWARE_MAX_STATES>> = None;
+        let mut r = StepReports::new();
         let mut want = std::vec::Vec::new();
         for m in &msgs {
             let reports = match m {
@@ -947,13 +970,18 @@ mod tests {
                     direct = Some(Engine::new(cfg.to_engine()).unwrap());
                     continue;
                 }
-                Message::ImuSample(s) => direct.as_mut().unwrap().push_imu(s.to_engine()),
-                Message::MasterNav(s) => direct.as_mut().unwrap().push_master(s.to_engine()),
-                Message::End(_) => Ok(direct.as_mut().unwrap().flush()),
+                Message::ImuSample(s) => direct.as_mut().unwrap().push_imu(s.to_engine(), &mut r),
+                Message::MasterNav(s) => {
+                    direct.as_mut().unwrap().push_master(s.to_engine(), &mut r)
+                }
+                Message::End(_) => {
+                    direct.as_mut().unwrap().flush(&mut r);
+                    Ok(())
+                }
                 _ => continue,
             };
             let e = direct.as_ref().unwrap();
-            for _ in 0..reports.map_or(0, |r| r.len()) {
+            for _ in 0..reports.map_or(0, |()| r.len()) {
                 let blocks: std::vec::Vec<_> = BOARD_LAYOUT
                     .iter()
                     .map(|b| e.effect_estimate(*b).unwrap())

@@ -4,7 +4,7 @@
 //! IMU hold of 64 samples = 0.32 s at 200 Hz).
 
 use flexcal_core::earth::Position;
-use flexcal_core::engine::{Engine, Estimates, ImuIncrement, MasterNav};
+use flexcal_core::engine::{Engine, Estimates, ImuIncrement, MasterNav, StepReports};
 use flexcal_sim::calib::config::CalibConfig;
 use flexcal_sim::recording::Recording;
 use flexcal_sim::sim::{simulate, Scenario};
@@ -30,32 +30,38 @@ fn master(m: &flexcal_sim::recording::MasterMsg) -> MasterNav<f64> {
 /// passed `t_v + delay(k)` (delays must keep the messages in order).
 fn run(rec: &Recording, cfg: &CalibConfig, delay: impl Fn(usize) -> f64) -> (Estimates<f64>, u32) {
     let mut e = Engine::<f64>::new(cfg.engine_config::<f64>(rec.meta.lever_arm_m)).unwrap();
-    e.push_imu(ImuIncrement {
-        t: rec.imu_t0,
-        dtheta_b: Vector3::zeros(),
-        dv_b: Vector3::zeros(),
-    })
+    e.push_imu(
+        ImuIncrement {
+            t: rec.imu_t0,
+            dtheta_b: Vector3::zeros(),
+            dv_b: Vector3::zeros(),
+        },
+        &mut StepReports::new(),
+    )
     .unwrap();
     let mut next = 0;
     for s in &rec.imu {
-        e.push_imu(ImuIncrement {
-            t: s.t,
-            dtheta_b: Vector3::from(s.dtheta_rad),
-            dv_b: Vector3::from(s.dv_mps),
-        })
+        e.push_imu(
+            ImuIncrement {
+                t: s.t,
+                dtheta_b: Vector3::from(s.dtheta_rad),
+                dv_b: Vector3::from(s.dv_mps),
+            },
+            &mut StepReports::new(),
+        )
         .unwrap();
         while let Some(m) = rec.master.get(next) {
             if m.t + delay(next) > s.t {
                 break;
             }
-            e.push_master(master(m)).unwrap();
+            e.push_master(master(m), &mut StepReports::new()).unwrap();
             next += 1;
         }
     }
     for m in &rec.master[next..] {
-        e.push_master(master(m)).unwrap();
+        e.push_master(master(m), &mut StepReports::new()).unwrap();
     }
-    e.flush();
+    e.flush(&mut StepReports::new());
     (e.estimates(), e.counters().master_matched)
 }
 

@@ -150,6 +150,7 @@ fn host_app_equals_the_engine_driven_directly() {
 
     // The same messages straight into Engine<f32>.
     let mut engine: Option<Engine<f32>> = None;
+    let mut r = flexcal_core::engine::StepReports::new();
     let mut per_update = Vec::new();
     for m in &msgs {
         let reports = match m {
@@ -157,13 +158,16 @@ fn host_app_equals_the_engine_driven_directly() {
                 engine = Some(Engine::new(c.to_engine()).expect("config"));
                 continue;
             }
-            Message::ImuSample(s) => engine.as_mut().unwrap().push_imu(s.to_engine()),
-            Message::MasterNav(s) => engine.as_mut().unwrap().push_master(s.to_engine()),
-            Message::End(_) => Ok(engine.as_mut().unwrap().flush()),
+            Message::ImuSample(s) => engine.as_mut().unwrap().push_imu(s.to_engine(), &mut r),
+            Message::MasterNav(s) => engine.as_mut().unwrap().push_master(s.to_engine(), &mut r),
+            Message::End(_) => {
+                engine.as_mut().unwrap().flush(&mut r);
+                Ok(())
+            }
             _ => continue,
         };
         let e = engine.as_ref().unwrap();
-        for _ in reports.map(|r| r.len()).into_iter().flat_map(|n| 0..n) {
+        for _ in reports.map(|()| r.len()).into_iter().flat_map(|n| 0..n) {
             let flags = HealthFlags::from_engine(&e.health(), &e.counters());
             per_update.push(EstimatesMsg::from_engine(&e.estimates(), flags));
         }

@@ -112,6 +112,7 @@ pub fn holdout(rec: &Recording, cfg: &CalibConfig, fraction: f64) -> Result<Hold
         Precision::F64,
         &RunOptions {
             freeze_at_s: Some(freeze_at_s),
+            innovations_only: true,
         },
     )?;
     let after: Vec<_> = res

@@ -17,9 +17,15 @@
 
 use super::flexure::flexure_from_estimates;
 use super::params::{ModelParams, Param};
-use crate::calib::run::{run, CalibResult, Precision};
+use crate::calib::run::{run, run_with, CalibResult, Precision, RunOptions};
 use crate::recording::Recording;
 use rayon::prelude::*;
+
+/// A likelihood evaluation reads the innovations only.
+const INNOVATIONS_ONLY: RunOptions = RunOptions {
+    freeze_at_s: None,
+    innovations_only: true,
+};
 
 /// −2 log-likelihood of one run, in total and per channel axis (`[channel][axis]`).
 #[derive(Clone, Copy, Debug, Default)]
@@ -93,7 +99,7 @@ pub struct Search<'a> {
 }
 
 fn evaluate(rec: &Recording, m: &ModelParams) -> Option<Likelihood> {
-    let res = run(rec, &m.config(), Precision::F64).ok()?;
+    let res = run_with(rec, &m.config(), Precision::F64, &INNOVATIONS_ONLY).ok()?;
     let l = Likelihood::of(&res);
     l.total.is_finite().then_some(l)
 }
@@ -323,7 +329,8 @@ impl<'a> Search<'a> {
         let mut counts = [0usize; 3];
         for _ in 0..iterations {
             self.evaluations += 1;
-            let Ok(res) = run(rec, &self.model.config(), Precision::F64) else {
+            let Ok(res) = run_with(rec, &self.model.config(), Precision::F64, &INNOVATIONS_ONLY)
+            else {
                 break;
             };
             let mut sum = [0.0f64; 3];
