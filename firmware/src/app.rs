@@ -744,33 +744,22 @@ mod tests {
         let mut updates = 0u32;
         let mut r = StepReports::new();
         for m in msgs {
-            match m {
-                Message::Config(c) => engine = Some(Engine::new(c.to_engine()).unwrap()),
-                Message::ImuSample(s) => {
-                    if engine
-                        .as_mut()
-                        .unwrap()
-                        .push_imu(s.to_engine(), &mut r)
-                        .is_ok()
-                    {
-                        updates += r.len() as u32;
-                    }
+            let e = engine.as_mut();
+            let pushed = match m {
+                Message::Config(c) => {
+                    engine = Some(Engine::new(c.to_engine()).unwrap());
+                    continue;
                 }
-                Message::MasterNav(s) => {
-                    if engine
-                        .as_mut()
-                        .unwrap()
-                        .push_master(s.to_engine(), &mut r)
-                        .is_ok()
-                    {
-                        updates += r.len() as u32;
-                    }
-                }
+                Message::ImuSample(s) => e.unwrap().push_imu(s.to_engine(), &mut r),
+                Message::MasterNav(s) => e.unwrap().push_master(s.to_engine(), &mut r),
                 Message::End(_) => {
-                    engine.as_mut().unwrap().flush(&mut r);
-                    updates += r.len() as u32;
+                    e.unwrap().flush(&mut r);
+                    Ok(())
                 }
-                _ => {}
+                _ => continue,
+            };
+            if pushed.is_ok() {
+                updates += r.len() as u32;
             }
         }
         let e = engine.unwrap();
