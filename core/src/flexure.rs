@@ -94,7 +94,7 @@ impl<T: Real> ArAxis<T> {
         let one = T::one();
         let u1 = one_minus_autocorrelation(omega_n, zeta, t);
         let u2 = one_minus_autocorrelation(omega_n, zeta, T::of(2.0) * t);
-        let (r1, r2) = (one - u1, one - u2);
+        let r1 = one - u1;
         // 1 − ρ1² and ρ2 − ρ1² written in the small quantities u = 1 − ρ.
         let d = u1 * (T::of(2.0) - u1);
         let a1 = r1 * u2 / d;

@@ -88,6 +88,11 @@ pub struct CalibConfig {
     /// Starting value of the master delay (s) when `effects` has `time_delay`: a
     /// previous estimate, so the delay's linearization holds from the start.
     pub initial_delay_s: f64,
+    /// The mounting the filter starts from, `μ̂₀` (rotation vector of `C_bs^bm`, rad):
+    /// its misalignment states are errors about it. Absent: zero. A learned model
+    /// holds the coarse alignment's (`calib::mounting`), found before the filter.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mounting_estimate_rad: Option<[f64; 3]>,
     /// Treat this configuration as the starting point of a model learned from the
     /// recording (`flexcal calibrate`, `diagnose`, `montecarlo` learn first), instead of
     /// the fixed truth about the data (false, the default for a file).
@@ -134,6 +139,7 @@ impl CalibConfig {
             master_velocity_error_mps: Effect::MasterVelocityError.default_prior_sigma(),
             master_error_correlation_s: flexcal_core::augment::MASTER_ERROR_CORRELATION_S,
             initial_delay_s: 0.0,
+            mounting_estimate_rad: None,
             tune: false,
         }
     }
@@ -267,6 +273,14 @@ impl CalibConfig {
                 return Err(format!("`{k}` must be a positive number, got {v}"));
             }
         }
+        if let Some(m) = self.mounting_estimate_rad {
+            let norm = m.iter().map(|v| v * v).sum::<f64>().sqrt();
+            if !(norm.is_finite() && norm <= std::f64::consts::PI) {
+                return Err(format!(
+                    "`mounting_estimate_rad` must be a rotation vector of at most π rad, got {m:?}"
+                ));
+            }
+        }
         let max = flexcal_core::engine::MAX_DELAY_S;
         if !(self.initial_delay_s.is_finite() && self.initial_delay_s.abs() <= max) {
             return Err(format!(
@@ -384,7 +398,9 @@ impl CalibConfig {
                 accel_bias_mps2: c(self.initial_accel_bias_mps2),
                 flexure_rad: c(self.initial_flexure_rad),
             },
-            initial_misalignment_rad: Vector3::zeros(),
+            initial_misalignment_rad: Vector3::from(
+                self.mounting_estimate_rad.unwrap_or([0.0; 3]).map(c),
+            ),
             gate_sigma: c(self.gate_sigma),
             // The smallest scaled variance: 1e-9 keeps f32 positive definite; f64 can go
             // lower, which a sharply observed augmented state (a delay known to µs) needs.

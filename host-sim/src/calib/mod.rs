@@ -3,6 +3,7 @@
 
 pub mod config;
 pub mod flexure_id;
+pub mod mounting;
 pub mod residuals;
 pub mod run;
 pub mod score;

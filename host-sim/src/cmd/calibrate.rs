@@ -126,6 +126,19 @@ pub fn learn_and_say(
             inc.accel_floor()
         );
     }
+    match &l.mounting {
+        Some(Ok(m)) => eprintln!(
+            "flexcal:   mounting before the filter: [{:.3}, {:.3}, {:.3}]° (rotation vector, {} blocks, residual {:.2e} of {:.2e} rad per block)",
+            m.rotation_vector_rad[0].to_degrees(),
+            m.rotation_vector_rad[1].to_degrees(),
+            m.rotation_vector_rad[2].to_degrees(),
+            m.blocks,
+            m.rms_residual_rad,
+            m.rms_rotation_rad
+        ),
+        Some(Err(e)) => eprintln!("flexcal:   mounting not aligned before the filter (starts from zero): {e}"),
+        None => {}
+    }
     for v in &l.values {
         let sigma = v.sigma.map(|s| format!(" ± {s:.3e}")).unwrap_or_default();
         eprintln!(

@@ -14,6 +14,7 @@ pub mod search;
 pub mod truth;
 
 use crate::calib::config::CalibConfig;
+use crate::calib::mounting::{coarse_mounting, CoarseMounting};
 use crate::diagnose::evaluate::{holdout, Holdout};
 use crate::recording::Recording;
 use increments::IncrementNoise;
@@ -25,6 +26,9 @@ use search::{LearnedValue, Search};
 const MASTER_ATTITUDE_SCALE_RAD: f64 = 1e-3;
 /// The same for the velocity error (m/s): 0.1 mm/s to 0.1 m/s.
 const MASTER_VELOCITY_SCALE_MPS: f64 = 0.1;
+
+/// Seconds of the recording's start the coarse mounting alignment reads.
+const MOUNTING_WINDOW_S: f64 = 60.0;
 
 /// Covariance-matching iterations of the channel noise per pass.
 const NOISE_ITERATIONS: usize = 4;
@@ -77,6 +81,10 @@ pub struct Learned {
     pub values: Vec<LearnedValue>,
     /// The slave's white noise from its increments (the cross-check of the random walks).
     pub increments: Option<IncrementNoise>,
+    /// The mounting found before the filter when the start had none
+    /// (`calib::mounting`): `Ok` and carried by both the start and the learned model,
+    /// or why not (the filter then starts from zero); `None` when the start declared it.
+    pub mounting: Option<Result<CoarseMounting, String>>,
     /// Seconds of recording the search ran on.
     pub window_s: f64,
     /// −2 ln L of the starting model on the window.
@@ -148,6 +156,16 @@ pub fn learn(
     opts: &LearnOptions,
 ) -> Result<Learned, String> {
     let clock = std::time::Instant::now();
+    // The mounting first: the filter's misalignment states are small errors about it.
+    let mut start = start.clone();
+    let mounting = start.mounting_estimate_rad.is_none().then(|| {
+        let found = coarse_mounting(rec, MOUNTING_WINDOW_S);
+        if let Ok(m) = &found {
+            start.mounting_estimate_rad = Some(m.rotation_vector_rad);
+        }
+        found
+    });
+    let start = &start;
     let win = window(rec, opts.window_s);
     let span = match (win.master.first(), win.master.last()) {
         (Some(a), Some(b)) if b.t > a.t => b.t - a.t,
@@ -233,6 +251,7 @@ pub fn learn(
         adopted,
         values: s.values,
         increments: inc,
+        mounting,
         window_s: span,
         neg2ll_start,
         neg2ll_learned,
