@@ -25,45 +25,9 @@ impl FlexureAxis {
         [a.a1, a.a2, a.sigma_rad]
     }
 
-    /// The continuous model whose AR(2) at period `t` ([`FlexureAxis::ar`], the
-    /// Yule-Walker AR(2) of the sampled process) is `[a1, a2, σ_η]`, when its poles are
-    /// complex and stable (an under-damped second-order system); `None` otherwise.
-    ///
-    /// That AR(2)'s poles are close to, not equal to, the process's: the process's decay
-    /// rate and damped frequency start at the AR(2)'s poles and are corrected by the
-    /// difference between the target's poles and those of their own AR(2) until the two
-    /// agree; σ then scales the driving noise onto `σ_η`.
+    /// The continuous model of an AR(2) `[a1, a2, σ_η]` at period `t`, when its poles
+    /// are complex and stable (an under-damped second-order system); `None` otherwise.
     pub fn from_ar([a1, a2, sigma]: [f64; 3], t: f64) -> Option<Self> {
-        let target = Poles::of(a1, a2, t)?;
-        let mut p = target;
-        for _ in 0..60 {
-            let [b1, b2, _] = p.axis(1.0).ar(t);
-            let got = Poles::of(b1, b2, t)?;
-            let (dz, dw) = (target.decay - got.decay, target.damped - got.damped);
-            p.decay += dz;
-            p.damped += dw;
-            if !(p.decay > 0.0 && p.damped > 0.0) {
-                return None;
-            }
-            if dz.abs() <= 1e-12 * p.decay && dw.abs() <= 1e-12 * p.damped {
-                break;
-            }
-        }
-        let unit = p.axis(1.0).ar(t)[2];
-        (unit > 0.0 && sigma.is_finite()).then(|| p.axis(sigma / unit))
-    }
-}
-
-/// A pair of complex stable poles `e^{(−decay ± i·damped) t}` (1/s, rad/s).
-#[derive(Clone, Copy)]
-struct Poles {
-    decay: f64,
-    damped: f64,
-}
-
-impl Poles {
-    /// The poles of `z² − a1 z − a2` at period `t`, when complex and inside the unit circle.
-    fn of(a1: f64, a2: f64, t: f64) -> Option<Self> {
         let r2 = -a2;
         if !(r2 > 0.0 && r2 < 1.0) {
             return None;
@@ -73,20 +37,15 @@ impl Poles {
         if c.is_nan() || c.abs() >= 1.0 {
             return None;
         }
-        Some(Self {
-            decay: -r.ln() / t,
-            damped: c.acos() / t,
-        })
-    }
-
-    /// The second-order process with these poles and stationary σ `sigma_rad`.
-    fn axis(self, sigma_rad: f64) -> FlexureAxis {
-        let omega = self.decay.hypot(self.damped);
-        FlexureAxis {
+        let wd = c.acos() / t;
+        let zw = -r.ln() / t;
+        let omega = (wd * wd + zw * zw).sqrt();
+        let g0 = (1.0 - a2) / ((1.0 + a2) * ((1.0 - a2) * (1.0 - a2) - a1 * a1));
+        (g0 > 0.0 && omega > 0.0).then(|| Self {
             omega_rad_s: omega,
-            damping: self.decay / omega,
-            sigma_rad,
-        }
+            damping: zw / omega,
+            sigma_rad: sigma * g0.sqrt(),
+        })
     }
 }
 

@@ -203,12 +203,9 @@ mod tests {
             let sc = blind::draw(seed, 60.0, None);
             let cfg = CalibConfig::declared_for(&sc, 1.0 / sc.master.rate_hz);
             let m = ModelParams::from_config(&cfg);
-            // The flexure goes through its AR(2) and back (`FlexureAxis::from_ar`), whose
-            // coefficients hold about 16 − 2·log10(1/ωt) digits: 1e-7 is zero for a score
-            // quoted in per cent.
             for e in param_errors(&m, &[], &sc) {
                 assert!(
-                    e.relative_error.abs() < 1e-7,
+                    e.relative_error.abs() < 1e-9,
                     "seed {seed}: {:?} {} vs {}",
                     e.param,
                     e.learned,
