@@ -27,9 +27,9 @@ for effect in none time-delay lever-arm-error gyro-scale-factor accel-scale-fact
     "$F" diagnose "$rec" --out "$rec-diag" > "$rec-diag.log" 2>&1 || true
     t1=$(date +%s.%N)
     top=$(grep -E '^  round 1:' "$rec-diag.log" |
-      sed -E 's/^  round 1: ([a-z_]+) \(Wald ([0-9.]+).*/\2 \1/' | sort -rn | head -n 1)
+      sed -E 's/^  round 1: ([a-z_]+) \(Wald ([0-9.]+).*/\2 \1/' | sort -rn | head -n 1 || true)
     adopted=$(grep -E 'adopted: significant' "$rec-diag.log" |
-      sed -E 's/^  round [0-9]+: ([a-z_]+).*/\1/' | paste -sd, -)
+      sed -E 's/^  round [0-9]+: ([a-z_]+).*/\1/' | paste -sd, - || true)
     printf '%-24s seed %-4s strongest: %-28s adopted: %-20s %6.1f s\n' \
       "$effect" "$seed" "${top:-(none significant)}" "${adopted:-none}" \
       "$(awk "BEGIN { print $t1 - $t0 }")"
