@@ -90,7 +90,13 @@ pub fn transport_rate_n<T: Real>(pos: &Position<T>, v_n: &Vector3<T>) -> Vector3
 }
 
 /// [`transport_rate_n`] from the radii and the latitude's tangent.
-fn transport_rate_of<T: Real>(rm: T, rn: T, tan_lat: T, height_m: T, v_n: &Vector3<T>) -> Vector3<T> {
+fn transport_rate_of<T: Real>(
+    rm: T,
+    rn: T,
+    tan_lat: T,
+    height_m: T,
+    v_n: &Vector3<T>,
+) -> Vector3<T> {
     let rmh = rm + height_m;
     let rnh = rn + height_m;
     Vector3::new(-v_n.y / rmh, v_n.x / rnh, v_n.x * tan_lat / rnh)
@@ -117,7 +123,13 @@ pub fn position_rate<T: Real>(pos: &Position<T>, v_n: &Vector3<T>) -> Vector3<T>
 }
 
 /// [`position_rate`] from the radii and the latitude's cosine.
-fn position_rate_of<T: Real>(rm: T, rn: T, cos_lat: T, height_m: T, v_n: &Vector3<T>) -> Vector3<T> {
+fn position_rate_of<T: Real>(
+    rm: T,
+    rn: T,
+    cos_lat: T,
+    height_m: T,
+    v_n: &Vector3<T>,
+) -> Vector3<T> {
     Vector3::new(
         v_n.y / (rm + height_m),
         v_n.x / ((rn + height_m) * cos_lat),
@@ -132,7 +144,13 @@ pub fn offset_position<T: Real>(pos: &Position<T>, d_n: &Vector3<T>) -> Position
 }
 
 /// [`offset_position`] from the radii and the latitude's cosine.
-fn offset_position_of<T: Real>(rm: T, rn: T, cos_lat: T, pos: &Position<T>, d_n: &Vector3<T>) -> Position<T> {
+fn offset_position_of<T: Real>(
+    rm: T,
+    rn: T,
+    cos_lat: T,
+    pos: &Position<T>,
+    d_n: &Vector3<T>,
+) -> Position<T> {
     Position {
         lat_rad: pos.lat_rad + d_n.y / (rm + pos.height_m),
         lon_rad: pos.lon_rad + d_n.x / ((rn + pos.height_m) * cos_lat),
@@ -271,9 +289,7 @@ mod tests {
             };
             let v = Vector3::new(3.0, -7.0, 0.5);
             let (l32, l64) = (Local::at(&p32), Local::at(&p64));
-            let rel = |a: Vector3<f32>, b: Vector3<f64>| {
-                (a.cast::<f64>() - b).norm() / b.norm()
-            };
+            let rel = |a: Vector3<f32>, b: Vector3<f64>| (a.cast::<f64>() - b).norm() / b.norm();
             assert!(rel(l32.gravity_n(), l64.gravity_n()) < 3e-7);
             assert!(rel(l32.earth_rate_n(), l64.earth_rate_n()) < 3e-7);
             assert!(rel(l32.transport_rate_n(&v.cast()), l64.transport_rate_n(&v)) < 5e-7);

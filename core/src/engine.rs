@@ -1012,8 +1012,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
         let w_en = here.transport_rate_n(&slave.v_n);
         // v̇ = C f + g − (2ω_ie + ω_en) × v, from the sensed force (not from differences
         // of the snapshots, which closed-loop corrections make jump).
-        let v_dot_n = c_bs_n * f_bs + here.gravity_n()
-            - (w_ie * T::of(2.0) + w_en).cross(&slave.v_n);
+        let v_dot_n =
+            c_bs_n * f_bs + here.gravity_n() - (w_ie * T::of(2.0) + w_en).cross(&slave.v_n);
         let x = self.kf.state();
         let block = |b: usize| Vector3::new(vget(&x, b), vget(&x, b + 1), vget(&x, b + 2));
         Signature {
@@ -1047,8 +1047,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         let here = earth::Local::at(&msg.pos);
         let (w_eb, w_eb_var) = self.master_rate_wrt_earth(msg, &here, &c_bm_n);
         let aug = self.cfg.augmentation;
-        let sig =
-            (!aug.is_empty()).then(|| self.signature(t_s, &slave, &here, &c_bm_n, &w_eb));
+        let sig = (!aug.is_empty()).then(|| self.signature(t_s, &slave, &here, &c_bm_n, &w_eb));
         // The flexure states belong to the last epoch, `lag` after the matching time:
         // the measurement sees θ(t_s) = θ − lag θ̇ (exact for a flexure linear over the
         // period). Zero without a delay in the layout (matching at the epoch).

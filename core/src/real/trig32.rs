@@ -22,8 +22,7 @@ const REDUCE_MAX: f32 = 1000.0;
 #[inline]
 fn sin_poly(r: f32) -> f32 {
     let r2 = r * r;
-    let p = -1.0 / 6.0
-        + r2 * (1.0 / 120.0 + r2 * (-1.0 / 5_040.0 + r2 * (1.0 / 362_880.0)));
+    let p = -1.0 / 6.0 + r2 * (1.0 / 120.0 + r2 * (-1.0 / 5_040.0 + r2 * (1.0 / 362_880.0)));
     r + r * r2 * p
 }
 
@@ -31,8 +30,7 @@ fn sin_poly(r: f32) -> f32 {
 #[inline]
 fn cos_poly(r: f32) -> f32 {
     let r2 = r * r;
-    let p = 1.0 / 24.0
-        + r2 * (-1.0 / 720.0 + r2 * (1.0 / 40_320.0 + r2 * (-1.0 / 3_628_800.0)));
+    let p = 1.0 / 24.0 + r2 * (-1.0 / 720.0 + r2 * (1.0 / 40_320.0 + r2 * (-1.0 / 3_628_800.0)));
     // 1 − r²/2 + r⁴ p, the large terms last.
     let half_r2 = 0.5 * r2;
     (1.0 - half_r2) + r2 * r2 * p
@@ -86,15 +84,29 @@ mod tests {
                 worst.1 = worst.1.max(ulps(c, xe.cos()));
             }
         }
-        assert!(worst.0 <= 2 && worst.1 <= 2, "worst ulps (sin, cos): {worst:?}");
+        assert!(
+            worst.0 <= 2 && worst.1 <= 2,
+            "worst ulps (sin, cos): {worst:?}"
+        );
     }
 
     #[test]
     fn small_angles_and_signs() {
-        for x in [0.0_f32, 1e-30, -1e-30, 1e-8, -3e-5, 0.01, core::f32::consts::FRAC_PI_4] {
+        for x in [
+            0.0_f32,
+            1e-30,
+            -1e-30,
+            1e-8,
+            -3e-5,
+            0.01,
+            core::f32::consts::FRAC_PI_4,
+        ] {
             let (s, c) = sin_cos(x);
             let xe = f64::from(x);
-            assert!(ulps(s, xe.sin()) <= 1 && ulps(c, xe.cos()) <= 1, "{x}: {s} {c}");
+            assert!(
+                ulps(s, xe.sin()) <= 1 && ulps(c, xe.cos()) <= 1,
+                "{x}: {s} {c}"
+            );
         }
     }
 
