@@ -252,7 +252,7 @@ mod tests {
 
     #[test]
     fn local_is_the_free_functions_bit_for_bit_in_f64() {
-        for lat in [-1.2_f64, -0.3, 0.0, 0.000_1, 0.6, 0.785_398, 1.3, 1.57] {
+        for lat in [-1.2_f64, -0.3, 0.0, 0.000_1, 0.6, 0.785, 1.3, 1.57] {
             let pos = Position {
                 lat_rad: lat,
                 lon_rad: 2.0,
@@ -271,7 +271,7 @@ mod tests {
 
     #[test]
     fn local_in_f32_is_within_f32_rounding_of_f64() {
-        for lat in [-1.2_f64, -0.3, 0.0, 0.6, 0.785_398, 1.3, 1.5] {
+        for lat in [-1.2_f64, -0.3, 0.0, 0.6, 0.785, 1.3, 1.5] {
             let p64 = Position {
                 lat_rad: lat,
                 lon_rad: 2.0,

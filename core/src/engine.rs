@@ -861,25 +861,29 @@ impl<T: Real, const S: usize> Engine<T, S> {
             v_n: msg.v_n + lever_v,
             pos: earth::Local::at(&msg.pos).offset_position(&(c_bm_n * r0)),
         };
-        // Pushed one by one: `collect` into a heapless `Vec` keeps a panic path (its
-        // capacity check), which the board image must not link. Same capacity, so no loss.
-        let mut raw: Vec<Snapshot<T>, ALIGN_DEPTH> = Vec::new();
-        for s in self.buffer.iter().filter(|s| s.t > msg.t) {
-            let _ = raw.push(*s);
-        }
-        self.buffer.clear();
+        // The snapshots after msg.t are re-integrated in place, oldest first: each is taken
+        // from the front of the ring and its re-integrated copy put at the back, after the
+        // start (which the ring, when full, drops: it would have been the oldest of M + 1).
+        // No copy of the buffer on the stack (it was the board's stack peak, 9.2 kB).
+        self.buffer.drop_until(msg.t);
+        let raw_count = self.buffer.len();
         let mut sd = Strapdown::new(nav);
-        let start = Snapshot {
+        let mut start = (raw_count < ALIGN_DEPTH).then_some(Snapshot {
             t: msg.t,
             q_b_n: nav.q_b_n,
             v_n: nav.v_n,
             dtheta_raw_b: Vector3::zeros(),
             dv_raw_b: Vector3::zeros(),
             dt: 0.0,
-        };
-        self.buffer.push(start);
+        });
         let mut t_prev = msg.t;
-        for s in raw.iter() {
+        for _ in 0..raw_count {
+            let Some(s) = self.buffer.pop_oldest() else {
+                break;
+            };
+            if let Some(st) = start.take() {
+                self.buffer.push(st);
+            }
             // The interval straddling the start contributes its part after msg.t.
             let dt = s.t - t_prev;
             let frac = T::of(if s.dt > 0.0 {
@@ -900,9 +904,12 @@ impl<T: Real, const S: usize> Engine<T, S> {
             self.buffer.push(Snapshot {
                 q_b_n: sd.nav.q_b_n,
                 v_n: sd.nav.v_n,
-                ..*s
+                ..s
             });
             t_prev = s.t;
+        }
+        if let Some(st) = start {
+            self.buffer.push(st);
         }
         self.strapdown = Some(sd);
         self.epoch = Some(Epoch {

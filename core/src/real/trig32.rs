@@ -38,7 +38,9 @@ fn cos_poly(r: f32) -> f32 {
 
 /// `(sin x, cos x)` of `x` (rad), in `f32`.
 pub fn sin_cos(x: f32) -> (f32, f32) {
-    if !(x.abs() <= REDUCE_MAX) {
+    // NaN compares false: it goes to the library too.
+    let reducible = x.abs() <= REDUCE_MAX;
+    if !reducible {
         return (libm::sinf(x), libm::cosf(x));
     }
     // Nearest multiple of π/2 (ties away from zero); `as` saturates, never panics.
