@@ -27,7 +27,7 @@ if [[ $# -ge 1 ]]; then
   elf="$1"
 else
   (cd "$root" && cargo fw-build)
-  elf="${CARGO_TARGET_DIR:-$root/target}/thumbv7em-none-eabihf/release/flexcal-firmware"
+  elf="${CARGO_TARGET_DIR:-$root/target}/thumbv7em-none-eabihf/firmware/flexcal-firmware"
 fi
 
 if ! command -v readelf >/dev/null 2>&1; then

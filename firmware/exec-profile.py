@@ -7,7 +7,7 @@ Usage (docs/performance.md):
         > /tmp/qemu-wrap/qemu-system-arm && chmod +x /tmp/qemu-wrap/qemu-system-arm
     flexcal simulate --scenario moored --duration 1 --out m1
     PATH=/tmp/qemu-wrap:$PATH flexcal replay m1 --qemu --transport semihosting --out r-m1
-    llvm-objdump -d --demangle --no-show-raw-insn target/thumbv7em-none-eabihf/release/flexcal-firmware > dis.txt
+    llvm-objdump -d --demangle --no-show-raw-insn target/thumbv7em-none-eabihf/firmware/flexcal-firmware > dis.txt
     firmware/exec-profile.py dis.txt /tmp/qemu-exec.log [N]
 
 Each executed translation block (its start address in the log) is charged the instructions

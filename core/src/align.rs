@@ -89,6 +89,29 @@ impl<T: Real, const M: usize> AlignBuffer<T, M> {
         self.ring.clear();
     }
 
+    /// Number of snapshots kept.
+    pub fn len(&self) -> usize {
+        self.ring.len()
+    }
+
+    /// `true` if no snapshot is kept.
+    pub fn is_empty(&self) -> bool {
+        self.ring.is_empty()
+    }
+
+    /// Drops the snapshots at or before `t` (the oldest ones: snapshots are kept in time
+    /// order).
+    pub fn drop_until(&mut self, t: f64) {
+        while self.ring.front().is_some_and(|s| s.t <= t) {
+            let _ = self.ring.pop_front();
+        }
+    }
+
+    /// Removes and returns the oldest snapshot.
+    pub fn pop_oldest(&mut self) -> Option<Snapshot<T>> {
+        self.ring.pop_front()
+    }
+
     /// The slave solution at time `t`, interpolated between the two snapshots around it.
     pub fn at(&self, t: f64) -> Result<SlaveAt<T>, AlignError> {
         let (first, last) = match (self.ring.front(), self.ring.back()) {

@@ -298,6 +298,44 @@ pub type StepReports<T> = Vec<MatchReport<T>, PENDING_DEPTH>;
 impl<T: Real, const S: usize> Engine<T, S> {
     /// A new engine; it initializes the slave solution from the first master message.
     pub fn new(cfg: EngineConfig<T>) -> Result<Self, EngineError> {
+        let mut e = Self::unconfigured(cfg);
+        e.reconfigure(cfg)?;
+        Ok(e)
+    }
+
+    /// An engine holding `cfg` but not started (zero covariance): only for
+    /// [`Engine::new`] and for a slot that [`Engine::reconfigure`] then starts. Every
+    /// field is empty or zero, so the compiler can write it straight into its place.
+    #[inline(always)]
+    pub fn unconfigured(cfg: EngineConfig<T>) -> Self {
+        Self {
+            kf: Kalman::unstarted(cfg.variance_floor),
+            strapdown: None,
+            buffer: AlignBuffer::new(),
+            pending: Deque::new(),
+            held: Deque::new(),
+            gyro_bias: Vector3::zeros(),
+            accel_bias: Vector3::zeros(),
+            misalignment: Vector3::zeros(),
+            last_imu_t: None,
+            last_imu_dt: None,
+            epoch: None,
+            prev_master: None,
+            last_update_t: 0.0,
+            counters: Counters::default(),
+            gated_streaks: [0; 3],
+            delay_s: 0.0,
+            past_master_rates: Deque::new(),
+            frozen: false,
+            cfg,
+        }
+    }
+
+    /// Starts this engine again with `cfg`, in place: afterwards it is what
+    /// [`Engine::new`]`(cfg)` returns, built without an engine-sized temporary (the board
+    /// reconfigures the engine in its `App` this way, at the depth of a small frame). On
+    /// a refused configuration the engine is left as it was.
+    pub fn reconfigure(&mut self, cfg: EngineConfig<T>) -> Result<(), EngineError> {
         let period_ok = cfg.filter_period_s > 0.0 && cfg.filter_period_s.is_finite();
         let flex_ok = (cfg.flexure.period_s.to_f64() - cfg.filter_period_s).abs()
             <= 1e-6 * cfg.filter_period_s;
@@ -310,35 +348,36 @@ impl<T: Real, const S: usize> Engine<T, S> {
         if cfg.augmentation.dimension() > S || S < N {
             return Err(EngineError::TooManyStates);
         }
-        let p0 = Self::initial_covariance(&cfg);
-        Ok(Self {
-            kf: Kalman::new(&p0, cfg.variance_floor),
-            strapdown: None,
-            buffer: AlignBuffer::new(),
-            pending: Deque::new(),
-            held: Deque::new(),
-            gyro_bias: Vector3::zeros(),
-            accel_bias: Vector3::zeros(),
-            misalignment: cfg.initial_misalignment_rad,
-            last_imu_t: None,
-            last_imu_dt: None,
-            epoch: None,
-            prev_master: None,
-            last_update_t: 0.0,
-            counters: Counters::default(),
-            gated_streaks: [0; 3],
-            delay_s: cfg.initial_delay_s,
-            past_master_rates: Deque::new(),
-            frozen: false,
-            cfg,
-        })
+        self.kf
+            .restart(cfg.variance_floor, |p| Self::initial_covariance(&cfg, p));
+        self.kf.health = Health::default();
+        self.strapdown = None;
+        self.buffer.clear();
+        self.pending.clear();
+        self.held.clear();
+        self.gyro_bias = Vector3::zeros();
+        self.accel_bias = Vector3::zeros();
+        self.misalignment = cfg.initial_misalignment_rad;
+        self.last_imu_t = None;
+        self.last_imu_dt = None;
+        self.epoch = None;
+        self.prev_master = None;
+        self.last_update_t = 0.0;
+        self.counters = Counters::default();
+        self.gated_streaks = [0; 3];
+        self.delay_s = cfg.initial_delay_s;
+        self.past_master_rates.clear();
+        self.frozen = false;
+        self.cfg = cfg;
+        Ok(())
     }
 
     /// The initial covariance. The slave's attitude is initialized from the master's
     /// through μ̂₀, so its error is ψ₀ = −J_r(μ̂₀)(δμ + θ₀) plus the master's attitude
-    /// noise: ψ is correlated with δμ and θ from the start, and P₀ says so.
-    fn initial_covariance(cfg: &EngineConfig<T>) -> StateMat<T, S> {
-        let mut p = StateMat::<T, S>::zeros();
+    /// noise: ψ is correlated with δμ and θ from the start, and P₀ says so. Written into
+    /// `p` (the filter's own storage: see [`Kalman::restart`]).
+    fn initial_covariance(cfg: &EngineConfig<T>, p: &mut StateMat<T, S>) {
+        p.fill(T::zero());
         let s = &cfg.initial_sigma;
         let sq = |x: T| x * x;
         let blocks = [
@@ -349,28 +388,28 @@ impl<T: Real, const S: usize> Engine<T, S> {
         ];
         for (b, var) in blocks {
             for k in 0..3 {
-                mat::set(&mut p, b + k, b + k, var);
+                mat::set(p, b + k, b + k, var);
             }
         }
         for (axis, ar) in cfg.flexure.axes.iter().enumerate() {
             let (i, j) = (TH + axis, THD + axis);
             match ar.stationary_covariance(cfg.flexure.period_s) {
-                Some(c) => mat::set_pair(&mut p, i, j, &c),
+                Some(c) => mat::set_pair(p, i, j, &c),
                 None => {
                     let t = cfg.flexure.period_s;
-                    mat::set(&mut p, i, i, sq(s.flexure_rad));
-                    mat::set(&mut p, j, j, sq(s.flexure_rad / t));
+                    mat::set(p, i, i, sq(s.flexure_rad));
+                    mat::set(p, j, j, sq(s.flexure_rad / t));
                 }
             }
         }
         // Augmented blocks: their priors; states past them are inert (unit variance).
         for b in cfg.augmentation.blocks() {
             for k in 0..b.effect.states() {
-                mat::set(&mut p, b.offset + k, b.offset + k, sq(b.prior_sigma));
+                mat::set(p, b.offset + k, b.offset + k, sq(b.prior_sigma));
             }
         }
         for i in cfg.augmentation.dimension()..S {
-            mat::set(&mut p, i, i, T::one());
+            mat::set(p, i, i, T::one());
         }
         // ψ = −J (δμ + θ) + n: the covariance through that linear map, written out. P₀ has
         // no ψ block and its δμ block is diagonal, so only ψ's rows and columns change:
@@ -384,9 +423,9 @@ impl<T: Real, const S: usize> Engine<T, S> {
             if let (Some(m), Some(t), Some(x)) =
                 (mu_var.get_mut(k), th_var.get_mut(k), th_thd.get_mut(k))
             {
-                *m = mat::get(&p, MU + k, MU + k);
-                *t = mat::get(&p, TH + k, TH + k);
-                *x = mat::get(&p, TH + k, THD + k);
+                *m = mat::get(p, MU + k, MU + k);
+                *t = mat::get(p, TH + k, TH + k);
+                *x = mat::get(p, TH + k, THD + k);
             }
         }
         let at = |v: &[T; 3], k: usize| v.get(k).copied().unwrap_or_else(T::zero);
@@ -398,8 +437,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
                     (TH + c, -jg(r, c) * th),
                     (THD + c, -jg(r, c) * thd),
                 ] {
-                    mat::set(&mut p, PSI + r, col, v);
-                    mat::set(&mut p, col, PSI + r, v);
+                    mat::set(p, PSI + r, col, v);
+                    mat::set(p, col, PSI + r, v);
                 }
             }
         }
@@ -412,10 +451,9 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 if r == c {
                     v += sq(cfg.measurement_noise.attitude_rad);
                 }
-                mat::set(&mut p, PSI + r, PSI + c, v);
+                mat::set(p, PSI + r, PSI + c, v);
             }
         }
-        p
     }
 
     /// The configuration in use.
@@ -838,27 +876,31 @@ impl<T: Real, const S: usize> Engine<T, S> {
         let nav = NavState {
             q_b_n: q_bs_n,
             v_n: msg.v_n + lever_v,
-            pos: earth::offset_position(&msg.pos, &(c_bm_n * r0)),
+            pos: earth::Local::at(&msg.pos).offset_position(&(c_bm_n * r0)),
         };
-        // Pushed one by one: `collect` into a heapless `Vec` keeps a panic path (its
-        // capacity check), which the board image must not link. Same capacity, so no loss.
-        let mut raw: Vec<Snapshot<T>, ALIGN_DEPTH> = Vec::new();
-        for s in self.buffer.iter().filter(|s| s.t > msg.t) {
-            let _ = raw.push(*s);
-        }
-        self.buffer.clear();
+        // The snapshots after msg.t are re-integrated in place, oldest first: each is taken
+        // from the front of the ring and its re-integrated copy put at the back, after the
+        // start (which the ring, when full, drops: it would have been the oldest of M + 1).
+        // No copy of the buffer on the stack (it was the board's stack peak, 9.2 kB).
+        self.buffer.drop_until(msg.t);
+        let raw_count = self.buffer.len();
         let mut sd = Strapdown::new(nav);
-        let start = Snapshot {
+        let mut start = (raw_count < ALIGN_DEPTH).then_some(Snapshot {
             t: msg.t,
             q_b_n: nav.q_b_n,
             v_n: nav.v_n,
             dtheta_raw_b: Vector3::zeros(),
             dv_raw_b: Vector3::zeros(),
             dt: 0.0,
-        };
-        self.buffer.push(start);
+        });
         let mut t_prev = msg.t;
-        for s in raw.iter() {
+        for _ in 0..raw_count {
+            let Some(s) = self.buffer.pop_oldest() else {
+                break;
+            };
+            if let Some(st) = start.take() {
+                self.buffer.push(st);
+            }
             // The interval straddling the start contributes its part after msg.t.
             let dt = s.t - t_prev;
             let frac = T::of(if s.dt > 0.0 {
@@ -879,9 +921,12 @@ impl<T: Real, const S: usize> Engine<T, S> {
             self.buffer.push(Snapshot {
                 q_b_n: sd.nav.q_b_n,
                 v_n: sd.nav.v_n,
-                ..*s
+                ..s
             });
             t_prev = s.t;
+        }
+        if let Some(st) = start {
+            self.buffer.push(st);
         }
         self.strapdown = Some(sd);
         self.epoch = Some(Epoch {
@@ -902,9 +947,15 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// lever-arm velocity, with the variance of its noise per axis (rad²/s²): from the
     /// master's rate when given (its declared noise), else from the change of its
     /// attitude since the previous message (√2 σ_att / Δt), else zero with no noise.
-    fn master_rate_wrt_earth(&self, msg: &MasterNav<T>, c_bm_n: &Matrix3<T>) -> (Vector3<T>, T) {
+    /// `here`: the Earth model at the master's position.
+    fn master_rate_wrt_earth(
+        &self,
+        msg: &MasterNav<T>,
+        here: &earth::Local<T>,
+        c_bm_n: &Matrix3<T>,
+    ) -> (Vector3<T>, T) {
         let noise = &self.cfg.measurement_noise;
-        let w_ie_b = c_bm_n.transpose() * earth::earth_rate_n(msg.pos.lat_rad);
+        let w_ie_b = c_bm_n.transpose() * here.earth_rate_n();
         if let Some(w) = msg.w_ib_bm {
             return (w - w_ie_b, noise.rate_radps * noise.rate_radps);
         }
@@ -912,7 +963,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             Some(p) if msg.t > p.t && msg.t - p.t <= 2.5 * self.cfg.filter_period_s.max(1e-3) => {
                 let dt = T::of(msg.t - p.t);
                 let w_nb = quat_log(&(p.q_bm_n.inverse() * msg.q_bm_n)) / dt;
-                let w_en = earth::transport_rate_n(&msg.pos, &msg.v_n);
+                let w_en = here.transport_rate_n(&msg.v_n);
                 let sigma = noise.attitude_rad / dt;
                 (w_nb + c_bm_n.transpose() * w_en, T::of(2.0) * sigma * sigma)
             }
@@ -956,12 +1007,13 @@ impl<T: Real, const S: usize> Engine<T, S> {
         })
     }
 
-    /// The columns' ingredients of the augmented blocks at slave time `t_s`.
+    /// The columns' ingredients of the augmented blocks at slave time `t_s`; `here`: the
+    /// Earth model at the master's position.
     fn signature(
         &self,
         t_s: f64,
         slave: &SlaveAt<T>,
-        msg: &MasterNav<T>,
+        here: &earth::Local<T>,
         c_bm_n: &Matrix3<T>,
         w_eb_bm: &Vector3<T>,
     ) -> Signature<T> {
@@ -980,12 +1032,12 @@ impl<T: Real, const S: usize> Engine<T, S> {
         } else {
             Vector3::zeros()
         };
-        let w_ie = earth::earth_rate_n(msg.pos.lat_rad);
-        let w_en = earth::transport_rate_n(&msg.pos, &slave.v_n);
+        let w_ie = here.earth_rate_n();
+        let w_en = here.transport_rate_n(&slave.v_n);
         // v̇ = C f + g − (2ω_ie + ω_en) × v, from the sensed force (not from differences
         // of the snapshots, which closed-loop corrections make jump).
-        let v_dot_n = c_bs_n * f_bs + earth::gravity_n(&msg.pos)
-            - (w_ie * T::of(2.0) + w_en).cross(&slave.v_n);
+        let v_dot_n =
+            c_bs_n * f_bs + here.gravity_n() - (w_ie * T::of(2.0) + w_en).cross(&slave.v_n);
         let x = self.kf.state();
         let block = |b: usize| Vector3::new(vget(&x, b), vget(&x, b + 1), vget(&x, b + 2));
         Signature {
@@ -1015,9 +1067,11 @@ impl<T: Real, const S: usize> Engine<T, S> {
         let gate = self.cfg.gate_sigma;
         let jr = right_jacobian(&self.misalignment);
         let m = self.cfg.matching;
-        let (w_eb, w_eb_var) = self.master_rate_wrt_earth(msg, &c_bm_n);
+        // The latitude's trig and radii once for every use at the master's position.
+        let here = earth::Local::at(&msg.pos);
+        let (w_eb, w_eb_var) = self.master_rate_wrt_earth(msg, &here, &c_bm_n);
         let aug = self.cfg.augmentation;
-        let sig = (!aug.is_empty()).then(|| self.signature(t_s, &slave, msg, &c_bm_n, &w_eb));
+        let sig = (!aug.is_empty()).then(|| self.signature(t_s, &slave, &here, &c_bm_n, &w_eb));
         // The flexure states belong to the last epoch, `lag` after the matching time:
         // the measurement sees θ(t_s) = θ − lag θ̇ (exact for a flexure linear over the
         // period). Zero without a delay in the layout (matching at the epoch).
@@ -1129,12 +1183,9 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// The re-initialization itself: slave solution dropped (the next master message
     /// restarts it), covariance back to P₀, health counters kept, the reset counted.
     fn reset(&mut self) {
-        let health = self.kf.health;
-        self.kf = Kalman::new(
-            &Self::initial_covariance(&self.cfg),
-            self.cfg.variance_floor,
-        );
-        self.kf.health = health;
+        let cfg = self.cfg;
+        self.kf
+            .restart(cfg.variance_floor, |p| Self::initial_covariance(&cfg, p));
         self.strapdown = None;
         self.buffer.clear();
         self.epoch = None;

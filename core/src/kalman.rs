@@ -204,25 +204,53 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// state scales are the square roots of its diagonal (a zero diagonal gets scale 1).
     /// `variance_floor` is the smallest allowed *scaled* variance, e.g. 1e-10.
     pub fn new(p0: &SMatrix<T, N, N>, variance_floor: T) -> Self {
-        let scale = SVector::<T, N>::from_fn(|i, _| {
-            let d = p0[(i, i)];
-            if d > T::zero() && d.is_finite() {
-                d.sqrt()
-            } else {
-                T::one()
-            }
-        });
-        let ps = SMatrix::<T, N, N>::from_fn(|i, j| {
-            mat::get(p0, i, j) / (vget(&scale, i) * vget(&scale, j))
-        });
+        let mut k = Self::unstarted(variance_floor);
+        k.restart(variance_floor, |p| p.copy_from(p0));
+        k
+    }
+
+    /// A filter with zero state and covariance and unit scales, for [`Kalman::restart`] to
+    /// start (all zeros and ones, so it can be written straight into its place).
+    #[inline(always)]
+    pub fn unstarted(variance_floor: T) -> Self {
         Self {
             xs: SVector::zeros(),
-            ps,
-            inv_scale: scale.map(|s| T::one() / s),
-            scale,
+            ps: SMatrix::zeros(),
+            scale: SVector::repeat(T::one()),
+            inv_scale: SVector::repeat(T::one()),
             floor: variance_floor,
             health: Health::default(),
         }
+    }
+
+    /// Starts the filter again in place, as [`Kalman::new`] would build it from the initial
+    /// covariance that `fill_p0` writes (physical units, symmetric) into the matrix it is
+    /// given, which is this filter's own storage: no `N × N` temporary (the board
+    /// reconfigures its engine this way). The health counters are kept.
+    pub fn restart(&mut self, variance_floor: T, fill_p0: impl FnOnce(&mut SMatrix<T, N, N>)) {
+        fill_p0(&mut self.ps);
+        for (i, (s, inv)) in self
+            .scale
+            .iter_mut()
+            .zip(self.inv_scale.iter_mut())
+            .enumerate()
+        {
+            let d = mat::get(&self.ps, i, i);
+            *s = if d > T::zero() && d.is_finite() {
+                d.sqrt_fast()
+            } else {
+                T::one()
+            };
+            *inv = T::one() / *s;
+        }
+        for j in 0..N {
+            for i in 0..N {
+                let v = mat::get(&self.ps, i, j) / (vget(&self.scale, i) * vget(&self.scale, j));
+                mat::set(&mut self.ps, i, j, v);
+            }
+        }
+        self.xs.fill(T::zero());
+        self.floor = variance_floor;
     }
 
     /// State estimate in physical units.
@@ -249,7 +277,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
 
     /// Standard deviation of state `i` (physical units).
     pub fn sigma(&self, i: usize) -> T {
-        self.cov(i, i).max(T::zero()).sqrt()
+        self.cov(i, i).max(T::zero()).sqrt_fast()
     }
 
     /// Scaled covariance (dimensionless; what the numerics act on), both triangles filled

@@ -95,9 +95,10 @@ fn put<T: Real, const R: usize, const C: usize>(
 /// Continuous-time error dynamics of the navigation and sensor states (15×15).
 pub fn nav_dynamics<T: Real>(m: &IntervalMeans<T>) -> SMatrix<T, NAV, NAV> {
     let mut f = SMatrix::<T, NAV, NAV>::zeros();
-    let w_ie = earth::earth_rate_n(m.pos.lat_rad);
-    let w_en = earth::transport_rate_n(&m.pos, &m.v_n);
-    let d_wen_dv = earth::transport_rate_jacobian(&m.pos);
+    let here = earth::Local::at(&m.pos);
+    let w_ie = here.earth_rate_n();
+    let w_en = here.transport_rate_n(&m.v_n);
+    let d_wen_dv = here.transport_rate_jacobian();
     // δv̇ = (−[(2ω_ie+ω_en)×] + [v×] ∂ω_en/∂v) δv − C[f×] ψ + C ∇
     let fvv = -skew(&(w_ie * T::of(2.0) + w_en)) + skew(&m.v_n) * d_wen_dv;
     put(&mut f, V, V, &fvv);

@@ -293,8 +293,9 @@ impl<T: Real> Strapdown<T> {
 
         let mut lo = self.residuals();
         let nav = self.nav;
-        let w_ie = earth::earth_rate_n(nav.pos.lat_rad);
-        let w_en = earth::transport_rate_n(&nav.pos, &nav.v_n);
+        let here = earth::Local::at(&nav.pos);
+        let w_ie = here.earth_rate_n();
+        let w_en = here.transport_rate_n(&nav.v_n);
         let w_in = w_ie + w_en;
         let zeta = w_in * inc.dt;
         // Specific force increment in n, with the n-frame rotation over the interval.
@@ -324,7 +325,7 @@ impl<T: Real> Strapdown<T> {
         add_compensated(&mut self.nav.v_n, &mut lo.v, &dv_n);
         // Position with the mean velocity over the interval.
         let v_mid = nav.v_n + dv_n * half;
-        let dpos = earth::position_rate(&nav.pos, &v_mid) * inc.dt;
+        let dpos = here.position_rate(&v_mid) * inc.dt;
         let mut p = Vector3::new(nav.pos.lat_rad, nav.pos.lon_rad, nav.pos.height_m);
         add_compensated(&mut p, &mut lo.pos, &dpos);
         self.nav.pos = Position {

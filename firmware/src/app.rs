@@ -101,50 +101,52 @@ macro_rules! on_engine {
 impl BoardEngine {
     /// Puts into `slot` the smallest engine that holds the configuration's layout: 21
     /// states for the declared model, [`FIRMWARE_MAX_STATES`] for a layout with effects
-    /// (`slot` is emptied first, and stays empty when the configuration is refused).
+    /// (`slot` is emptied when the configuration is refused).
     ///
-    /// Each size is built by a function of its own (not inlined): the engine is large and
-    /// passes through temporaries on its way into `slot`, so one frame holding both sizes'
-    /// would make the declared model's configuration as deep as the largest layout's.
-    /// (Written as a `match`, not with `?`: measured, `?` kept a second engine-sized
-    /// temporary in the frame, 31 kB instead of 17 kB for the declared model.)
+    /// Built in place: an engine of the right size already in `slot` is reconfigured
+    /// there ([`Engine::reconfigure`]); otherwise `slot` first gets an
+    /// [`Engine::unconfigured`] (zeros and empty queues, which the compiler writes straight
+    /// into the slot). No engine-sized temporary and no `S × S` initial covariance pass
+    /// through the stack (they made the Config the stack's peak, docs/performance.md).
+    /// Each size has a function of its own (not inlined), so the declared model's
+    /// configuration is not as deep as the largest layout's.
     pub fn create(slot: &mut Option<Self>, cfg: EngineConfig<f32>) -> Result<(), ConfigRefused> {
-        *slot = None;
         let states = cfg.augmentation.dimension();
-        if states > FIRMWARE_MAX_STATES {
-            return Err(ConfigRefused::TooManyStates { states });
-        }
-        if cfg.augmentation.is_empty() {
-            Self::create_declared(slot, cfg)
+        let result = if states > FIRMWARE_MAX_STATES {
+            Err(ConfigRefused::TooManyStates { states })
+        } else if cfg.augmentation.is_empty() {
+            Self::configure_declared(slot, cfg).map_err(ConfigRefused::Engine)
         } else {
-            Self::create_augmented(slot, cfg)
+            Self::configure_augmented(slot, cfg).map_err(ConfigRefused::Engine)
+        };
+        if result.is_err() {
+            *slot = None;
         }
-        .map_err(ConfigRefused::Engine)
+        result
     }
 
     #[inline(never)]
-    fn create_declared(slot: &mut Option<Self>, cfg: EngineConfig<f32>) -> Result<(), EngineError> {
-        match Engine::new(cfg) {
-            Ok(e) => {
-                *slot = Some(BoardEngine::Declared(e));
-                Ok(())
-            }
-            Err(e) => Err(e),
-        }
-    }
-
-    #[inline(never)]
-    fn create_augmented(
+    fn configure_declared(
         slot: &mut Option<Self>,
         cfg: EngineConfig<f32>,
     ) -> Result<(), EngineError> {
-        match Engine::new(cfg) {
-            Ok(e) => {
-                *slot = Some(BoardEngine::Augmented(e));
-                Ok(())
-            }
-            Err(e) => Err(e),
-        }
+        let engine = match slot {
+            Some(e @ BoardEngine::Declared(_)) => e,
+            _ => slot.insert(BoardEngine::Declared(Engine::unconfigured(cfg))),
+        };
+        on_engine!(engine, e => e.reconfigure(cfg))
+    }
+
+    #[inline(never)]
+    fn configure_augmented(
+        slot: &mut Option<Self>,
+        cfg: EngineConfig<f32>,
+    ) -> Result<(), EngineError> {
+        let engine = match slot {
+            Some(e @ BoardEngine::Augmented(_)) => e,
+            _ => slot.insert(BoardEngine::Augmented(Engine::unconfigured(cfg))),
+        };
+        on_engine!(engine, e => e.reconfigure(cfg))
     }
 
     /// State dimension of the running engine.

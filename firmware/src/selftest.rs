@@ -6,7 +6,10 @@
 //! the right numbers, and it gives the QEMU test something real to wait for. The same
 //! generic code runs in `f32` on the board and in `f32` and `f64` in the host tests.
 //!
-//! Two checks:
+//! Three checks:
+//! - the engine's own elementary functions (`Real::sqrt_fast`, the FPU's `vsqrt.f32` on the
+//!   board, bit for bit equal to `libm`'s correctly rounded square root; `Real::sin_cos_fast`
+//!   close to `libm`'s sine and cosine);
 //! - WGS-84 normal gravity (Somigliana's closed formula) at the equator and at a pole,
 //!   against the published defining values γe and γp;
 //! - the step response of a first-order low-pass filter run recursively for `N` steps,
@@ -39,6 +42,8 @@ pub enum SelftestError {
     Gravity,
     /// The recursive low-pass filter disagrees with its closed form.
     LowPass,
+    /// `Real::sqrt_fast` or `Real::sin_cos_fast` disagrees with the library's function.
+    Elementary,
 }
 
 /// The values the self-test computed (all checked before this is returned).
@@ -71,6 +76,25 @@ pub fn low_pass_step_response<R: Real>(gain: R, steps: u16) -> R {
         y += gain * (R::one() - y);
     }
     y
+}
+
+/// Arguments of the elementary-function check: zero, tiny, around one, large, angles.
+const ELEMENTARY_ARGS: [f64; 8] = [0.0, 1e-30, 0.3, 0.5, 2.0, 3.0, 123.456, 1e10];
+
+/// `true` if `Real::sqrt_fast` equals the library's square root bit for bit on
+/// [`ELEMENTARY_ARGS`], and `Real::sin_cos_fast` is within `tol` of the library's sine and
+/// cosine on those below 1000 rad (the range `sin_cos_fast` reduces itself; beyond it, it is
+/// the library's).
+fn elementary_functions_agree<R: Real>(tol: R) -> bool {
+    ELEMENTARY_ARGS.iter().all(|&x| {
+        let x = R::of(x);
+        let root_ok = x.sqrt_fast() == x.sqrt();
+        let trig_ok = x >= R::of(1000.0) || {
+            let (s, c) = x.sin_cos_fast();
+            close(s, x.sin(), tol) && close(c, x.cos(), tol)
+        };
+        root_ok && trig_ok
+    })
 }
 
 /// `|a - b| <= tol * max(1, |b|)`, false for NaN.
@@ -108,6 +132,10 @@ pub fn run<R: Real>() -> Result<SelftestReport<R>, SelftestError> {
         low_pass_expected.to_f64()
     );
 
+    if !elementary_functions_agree(tol) {
+        error!("selftest: elementary functions off");
+        return Err(SelftestError::Elementary);
+    }
     let values = [gravity_equator, gravity_pole, gravity_45, low_pass];
     if !values.iter().all(|v| v.is_finite()) {
         error!("selftest: non-finite value");

@@ -1,8 +1,8 @@
-//! The firmware release image, run in QEMU's `netduinoplus2` (an STM32F405, the reference
-//! board's chip).
+//! The firmware image, run in QEMU's `netduinoplus2` (an STM32F405, the reference board's
+//! chip).
 //!
-//! Each test builds the image with cargo (release, `thumbv7em-none-eabihf`) in its own target
-//! directory under the workspace's `target/` (a nested cargo must not wait on the lock of the
+//! Each test builds the image with cargo (`firmware` profile, `thumbv7em-none-eabihf`) in its
+//! own target directory under the workspace's `target/` (a nested cargo must not wait on the lock of the
 //! cargo running these tests, and the two image variants must not overwrite each other's
 //! binary while the other runs it), then runs it in `qemu-system-arm` with a time limit.
 //!

@@ -25,7 +25,7 @@ use crate::link::receiver::LinkCounters;
 use crate::link::sequence::SequenceCounters;
 use crate::model::{LeverBending, ProcessNoise};
 use crate::real::Real;
-use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use nalgebra::{Quaternion, Vector3};
 
 /// Payload length of [`MasterNavMsg`].
 pub const MASTER_NAV_LEN: usize = 85;
@@ -1111,7 +1111,7 @@ impl MasterNavMsg {
         let [w, x, y, z] = self.q_bm_n;
         MasterNav {
             t: self.t,
-            q_bm_n: UnitQuaternion::from_quaternion(Quaternion::new(
+            q_bm_n: crate::rotation::normalize(&Quaternion::new(
                 T::of(w),
                 T::of(x),
                 T::of(y),

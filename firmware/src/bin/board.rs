@@ -3,7 +3,7 @@
 //! Build (CI does, `.ci/run`; it need not run anywhere to be checked):
 //!
 //! ```text
-//! cargo build -p flexcal-firmware --release --target thumbv7em-none-eabihf --features board --bin flexcal-board
+//! cargo build -p flexcal-firmware --profile firmware --target thumbv7em-none-eabihf --features board --bin flexcal-board
 //! ```
 //!
 //! and flash/read with a probe (`probe-rs run --chip STM32F405RGTx <elf>`).

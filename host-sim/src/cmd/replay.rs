@@ -36,7 +36,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// The firmware image `cargo fw-build` writes, relative to the workspace root.
-pub const DEFAULT_ELF: &str = "target/thumbv7em-none-eabihf/release/flexcal-firmware";
+pub const DEFAULT_ELF: &str = "target/thumbv7em-none-eabihf/firmware/flexcal-firmware";
 
 /// Arguments of `flexcal replay`.
 #[derive(clap::Args)]

@@ -50,7 +50,7 @@ pub fn image_target_base() -> PathBuf {
     }
 }
 
-/// Builds the firmware release image into `<target>/<target_subdir>` (`<target>`: see
+/// Builds the firmware image (the `firmware` profile, as `cargo fw-build`) into `<target>/<target_subdir>` (`<target>`: see
 /// [`image_target_base`]) and returns the ELF path.
 pub fn build_image(target_subdir: &str, features: &[&str]) -> PathBuf {
     let root = workspace_root();
@@ -62,7 +62,8 @@ pub fn build_image(target_subdir: &str, features: &[&str]) -> PathBuf {
             "build",
             "-p",
             "flexcal-firmware",
-            "--release",
+            "--profile",
+            "firmware",
             "--target",
             TARGET,
         ])
@@ -96,7 +97,7 @@ pub fn build_image(target_subdir: &str, features: &[&str]) -> PathBuf {
     );
     let elf = target_dir
         .join(TARGET)
-        .join("release")
+        .join("firmware")
         .join("flexcal-firmware");
     assert!(elf.is_file(), "no firmware image at {}", elf.display());
     elf
