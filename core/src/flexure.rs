@@ -171,8 +171,12 @@ mod tests {
         for &(omega, zeta, t) in &[(1.43, 0.33, 0.02), (0.5, 0.1, 0.01), (2.5, 0.5, 0.1)] {
             let sigma = 5e-4;
             let ax = ArAxis::from_gauss_markov(omega, zeta, sigma, t);
-            let ratio = ax.sigma_rad * ax.sigma_rad / exact_one_step_variance(omega, zeta, sigma, t);
-            assert!((ratio / factor - 1.0).abs() < 0.03, "{omega} {zeta} {t}: {ratio}");
+            let ratio =
+                ax.sigma_rad * ax.sigma_rad / exact_one_step_variance(omega, zeta, sigma, t);
+            assert!(
+                (ratio / factor - 1.0).abs() < 0.03,
+                "{omega} {zeta} {t}: {ratio}"
+            );
         }
     }
 

@@ -102,14 +102,17 @@ pub fn coarse_mounting(rec: &Recording, window_s: f64) -> Result<CoarseMounting,
     let r = u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * v_t;
     let mu = log_so3(&r);
     let n = pairs.len() as f64;
-    let rms = |f: &dyn Fn(&(Vector3<f64>, Vector3<f64>)) -> f64| {
-        (pairs.iter().map(f).sum::<f64>() / n).sqrt()
-    };
+    let mean_square_residual = pairs
+        .iter()
+        .map(|(m, s)| (m - r * s).norm_squared())
+        .sum::<f64>()
+        / n;
+    let mean_square_rotation = pairs.iter().map(|(m, _)| m.norm_squared()).sum::<f64>() / n;
     Ok(CoarseMounting {
         rotation_vector_rad: [mu.x, mu.y, mu.z],
         blocks: pairs.len(),
-        rms_residual_rad: rms(&|(m, s)| (m - r * s).norm_squared()),
-        rms_rotation_rad: rms(&|(m, _)| m.norm_squared()),
+        rms_residual_rad: mean_square_residual.sqrt(),
+        rms_rotation_rad: mean_square_rotation.sqrt(),
         singular_values: sv,
     })
 }
