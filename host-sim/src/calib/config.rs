@@ -275,7 +275,8 @@ impl CalibConfig {
         }
         if let Some(m) = self.mounting_estimate_rad {
             let norm = m.iter().map(|v| v * v).sum::<f64>().sqrt();
-            if !(norm.is_finite() && norm <= std::f64::consts::PI) {
+            // A half turn may come out of the logarithm a rounding above π.
+            if !(norm.is_finite() && norm <= std::f64::consts::PI + 1e-9) {
                 return Err(format!(
                     "`mounting_estimate_rad` must be a rotation vector of at most π rad, got {m:?}"
                 ));

@@ -156,6 +156,7 @@ mod tests {
             [3.3, -1.0, 0.4],
             [30.0, 0.0, 0.0],
             [0.0, 90.0, 0.0],
+            [0.0, 0.0, 180.0],
             [-10.0, 20.0, 170.0],
         ] {
             let mut sc = Scenario::load("moored").expect("built-in");
@@ -168,6 +169,7 @@ mod tests {
             let got =
                 nalgebra::Rotation3::from_scaled_axis(Vector3::from(found.rotation_vector_rad));
             let err_deg = (truth.inverse() * got).angle().to_degrees();
+            eprintln!("mounting {mis:?}°: found to {err_deg:.4}°");
             assert!(err_deg < 0.1, "{mis:?}: off by {err_deg}° ({found:?})");
         }
     }
