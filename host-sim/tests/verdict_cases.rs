@@ -7,12 +7,13 @@
 //! 0.5 s clock offset). None may PASS. The clean recording itself must PASS (control).
 
 use flexcal_sim::calib::config::CalibConfig;
-use flexcal_sim::calib::run::{run, Precision};
-use flexcal_sim::cmd::calibrate::prepare_config;
+use flexcal_sim::calib::run::Precision;
+use flexcal_sim::cmd::calibrate::calibrate;
 use flexcal_sim::cmd::common::ModelArgs;
-use flexcal_sim::recording::{read_recording, write_recording, Recording};
+use flexcal_sim::cmd::progress::Progress;
+use flexcal_sim::recording::{write_recording, Recording};
 use flexcal_sim::sim::{simulate, Scenario};
-use flexcal_sim::verdict::{of_calibration, Level, Severity, Verdict};
+use flexcal_sim::verdict::{Level, Severity, Verdict};
 use std::path::{Path, PathBuf};
 
 /// Duration of the clean recording (s): long enough for every state's σ to fall below
@@ -330,19 +331,19 @@ fn cases() -> Vec<Case> {
     ]
 }
 
-/// What `flexcal calibrate` decides about the recording in `dir`.
+/// What `flexcal calibrate` decides about the recording in `dir` (its estimates
+/// written beside it).
 fn verdict_of(dir: &Path) -> Result<Verdict, String> {
-    let rec = read_recording(dir).map_err(|e| e.to_string())?;
-    let p = prepare_config(&rec, dir, None, &ModelArgs::default())?;
-    let res = run(&rec, &p.cfg, Precision::F64)?;
-    Ok(of_calibration(
+    let progress = Progress::start("calibrating");
+    let c = calibrate(
         dir,
-        &rec,
-        p.config_file.as_deref(),
-        p.learned.as_ref(),
-        &p.cfg,
-        &res,
-    ))
+        None,
+        &ModelArgs::default(),
+        Precision::F64,
+        &dir.join("estimates.csv"),
+        &progress,
+    )?;
+    Ok(c.verdict)
 }
 
 fn write_case(root: &Path, i: usize, c: &Case, base: &(Recording, CalibConfig)) -> PathBuf {

@@ -68,9 +68,9 @@ pub fn run(a: &Args) -> Result<(), String> {
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
     let label = a.rec_dir.display().to_string();
     let command: String = std::env::args().collect::<Vec<_>>().join(" ");
+    let mut scan = crate::verdict::input::Scan::of_dir(&a.rec_dir)?;
     let mut verdict = crate::verdict::of_calibration(
-        &a.rec_dir,
-        &rec,
+        &mut scan,
         prepared.config_file.as_deref(),
         prepared.learned.as_ref(),
         &d.after.cfg,

@@ -31,6 +31,7 @@ pub(crate) struct CsvReader<R> {
     /// 1-based number of the line in `text`.
     line: usize,
     bytes: Vec<u8>,
+    consumed: u64,
     text: String,
     fields: Vec<Range<usize>>,
 }
@@ -84,6 +85,7 @@ impl<R: BufRead> CsvReader<R> {
             header_line: 0,
             line: 0,
             bytes: Vec::new(),
+            consumed: 0,
             text: String::new(),
             fields: Vec::new(),
         };
@@ -114,6 +116,7 @@ impl<R: BufRead> CsvReader<R> {
             if n == 0 {
                 return Ok(false);
             }
+            self.consumed += n as u64;
             self.line += 1;
             let bytes = std::mem::take(&mut self.bytes);
             let text = String::from_utf8(bytes).map_err(|_| {
@@ -150,6 +153,11 @@ impl<R: BufRead> CsvReader<R> {
             }
         }
         Ok(())
+    }
+
+    /// Bytes of the file read so far.
+    pub(crate) fn bytes_read(&self) -> u64 {
+        self.consumed
     }
 
     /// The file being read.
@@ -222,7 +230,7 @@ impl Row<'_> {
     /// An error located at this line and the 0-based column `col`.
     pub(crate) fn error(&self, col: usize, kind: ErrorKind) -> RecordingError {
         let name = self.header.get(col).map_or("", String::as_str);
-        RecordingError::new(&self.path, kind)
+        RecordingError::new(self.path, kind)
             .at_line(self.line)
             .at_column(col, name)
     }

@@ -142,6 +142,11 @@ impl SlaveReader {
         self.line
     }
 
+    /// Bytes of the file read so far (for progress against the file's size).
+    pub fn bytes_read(&self) -> u64 {
+        self.csv.bytes_read()
+    }
+
     fn read(&mut self) -> Option<Result<ImuSample, RecordingError>> {
         let row = match self.csv.next_row()? {
             Ok(row) => row,
