@@ -826,12 +826,19 @@ pub fn write_outputs(a: &Args, r: &Replayed) -> Result<(), String> {
         a.out.display()
     );
     for r in res.final_effects() {
+        let u = crate::report::units::of_effect_unit(r.effect.unit());
+        let f = |x: &[f64]| {
+            x.iter()
+                .map(|v| crate::report::units::sig3(v * u.scale))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
         println!(
-            "  {} ({}): {:?} ± {:?}",
+            "  {} ({}): [{}] ± [{}]",
             r.effect.name(),
-            r.effect.unit(),
-            r.value,
-            r.sigma
+            u.name,
+            f(&r.value),
+            f(&r.sigma)
         );
     }
     verdict.conclude()

@@ -94,9 +94,8 @@ pub struct SlaveReader {
     order: TimeOrder,
     t0: f64,
     prev: f64,
-    count: usize,
     line: usize,
-    done: bool,
+    ends: Ends,
 }
 
 impl SlaveReader {
@@ -126,9 +125,8 @@ impl SlaveReader {
             order,
             t0,
             prev: t0,
-            count: 0,
             line,
-            done: false,
+            ends: Ends::new(SLAVE_NEEDED),
         })
     }
 
@@ -171,12 +169,15 @@ impl SlaveReader {
     }
 }
 
+/// What a slave file needs at least.
+const SLAVE_NEEDED: &str = "a line that starts the clock and at least one sample after it";
+
 /// The error of a slave file without a sample after its first line.
 fn no_slave_samples(path: &Path) -> RecordingError {
     RecordingError::new(
         path,
         ErrorKind::NoSamples {
-            needed: "a line that starts the clock and at least one sample after it",
+            needed: SLAVE_NEEDED,
         },
     )
 }
@@ -185,36 +186,61 @@ impl Iterator for SlaveReader {
     type Item = Result<ImuSample, RecordingError>;
 
     fn next(&mut self) -> Option<Self::Item> {
-        let read = if self.done { None } else { self.read() };
-        let path = self.csv.path();
-        step(read, &mut self.done, &mut self.count, || {
-            no_slave_samples(path)
-        })
+        let read = if self.ends.done() { None } else { self.read() };
+        self.ends.step(read, self.csv.path())
     }
 }
 
-/// One step of a reader: the item `read` gave; at the end, the error `empty` when
-/// nothing was read; nothing after an error or the end.
-fn step<T>(
-    read: Option<Result<T, RecordingError>>,
-    done: &mut bool,
-    count: &mut usize,
-    empty: impl FnOnce() -> RecordingError,
-) -> Option<Result<T, RecordingError>> {
-    if *done {
-        return None;
+/// How a reader ends: an error (and then nothing) at the first departure from the
+/// contract; at the end of the file, [`ErrorKind::NoSamples`] saying what was `needed`
+/// when nothing was read.
+#[derive(Debug)]
+struct Ends {
+    needed: &'static str,
+    count: usize,
+    done: bool,
+}
+
+impl Ends {
+    fn new(needed: &'static str) -> Self {
+        Self {
+            needed,
+            count: 0,
+            done: false,
+        }
     }
-    let item = match read {
-        Some(item) => item,
-        None if *count == 0 => Err(empty()),
-        None => {
-            *done = true;
+
+    /// Whether the reader has ended.
+    fn done(&self) -> bool {
+        self.done
+    }
+
+    /// What the reader yields for what it read (`None`: the end of `path`).
+    fn step<T>(
+        &mut self,
+        read: Option<Result<T, RecordingError>>,
+        path: &Path,
+    ) -> Option<Result<T, RecordingError>> {
+        if self.done {
             return None;
         }
-    };
-    *done = item.is_err();
-    *count += 1;
-    Some(item)
+        let item = match read {
+            Some(item) => item,
+            None if self.count == 0 => Err(RecordingError::new(
+                path,
+                ErrorKind::NoSamples {
+                    needed: self.needed,
+                },
+            )),
+            None => {
+                self.done = true;
+                return None;
+            }
+        };
+        self.done = item.is_err();
+        self.count += 1;
+        Some(item)
+    }
 }
 
 /// `master.csv` read one message at a time. Yields an error (and then nothing)
@@ -224,9 +250,8 @@ pub struct MasterReader {
     cols: [usize; 11],
     rate_cols: Option<[usize; 3]>,
     order: TimeOrder,
-    count: usize,
     line: usize,
-    done: bool,
+    ends: Ends,
 }
 
 impl MasterReader {
@@ -240,9 +265,8 @@ impl MasterReader {
             cols,
             rate_cols,
             order: TimeOrder::default(),
-            count: 0,
             line: 0,
-            done: false,
+            ends: Ends::new("at least one message"),
         })
     }
 
@@ -281,16 +305,8 @@ impl Iterator for MasterReader {
     type Item = Result<MasterMsg, RecordingError>;
 
     fn next(&mut self) -> Option<Self::Item> {
-        let read = if self.done { None } else { self.read() };
-        let path = self.csv.path();
-        step(read, &mut self.done, &mut self.count, || {
-            RecordingError::new(
-                path,
-                ErrorKind::NoSamples {
-                    needed: "at least one message",
-                },
-            )
-        })
+        let read = if self.ends.done() { None } else { self.read() };
+        self.ends.step(read, self.csv.path())
     }
 }
 
@@ -332,8 +348,7 @@ pub struct TruthReader {
     data_cols: Vec<usize>,
     names: Vec<String>,
     order: TimeOrder,
-    count: usize,
-    done: bool,
+    ends: Ends,
 }
 
 impl TruthReader {
@@ -359,8 +374,7 @@ impl TruthReader {
             data_cols,
             names,
             order: TimeOrder::default(),
-            count: 0,
-            done: false,
+            ends: Ends::new("at least one line of values"),
         }))
     }
 
@@ -411,15 +425,7 @@ impl Iterator for TruthReader {
     type Item = Result<TruthRow, RecordingError>;
 
     fn next(&mut self) -> Option<Self::Item> {
-        let read = if self.done { None } else { self.read() };
-        let path = self.csv.path();
-        step(read, &mut self.done, &mut self.count, || {
-            RecordingError::new(
-                path,
-                ErrorKind::NoSamples {
-                    needed: "at least one line of values",
-                },
-            )
-        })
+        let read = if self.ends.done() { None } else { self.read() };
+        self.ends.step(read, self.csv.path())
     }
 }

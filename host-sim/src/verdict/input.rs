@@ -15,6 +15,7 @@ use crate::recording::{
     open_recording, ImuSample, MasterMsg, Recording, RecordingMeta, MASTER_FILE, META_FILE,
     SLAVE_FILE, TRUTH_FILE,
 };
+use crate::report::units::{show, RATE};
 use serde_json::json;
 use std::collections::VecDeque;
 use std::io::{Read, Seek, SeekFrom};
@@ -440,45 +441,39 @@ fn declared_rates(meta: &RecordingMeta, slave_dt: f64, master_dt: f64) -> Vec<Fi
     out
 }
 
-fn slave_gap_finding(g: Gaps) -> Finding {
-    let sev = if g.longest_s > SLAVE_GAP_FAIL_S {
-        Severity::Fail
-    } else {
-        Severity::Warn
-    };
-    Finding::new(
-            sev,
-            "slave_gap",
-            format!(
-                "{} gap(s) in the slave samples ({} s missing in all); the longest, {} s, is integrated as a single increment",
-                g.count,
-                g3(g.total_s),
-                g3(g.longest_s)
-            ),
-        )
-        .at(g.longest_at.at(SLAVE_FILE))
+/// The finding of a file's gaps: `sev`, `code`, and what the gaps are of and mean.
+fn gap_finding(g: Gaps, sev: Severity, code: &'static str, file: &str, what: String) -> Finding {
+    Finding::new(sev, code, what)
+        .at(g.longest_at.at(file))
         .num("gaps", g.count as f64)
         .num("missing_s", g.total_s)
         .num("longest_s", g.longest_s)
         .num("median_interval_s", g.median_s)
 }
 
+fn slave_gap_finding(g: Gaps) -> Finding {
+    let sev = if g.longest_s > SLAVE_GAP_FAIL_S {
+        Severity::Fail
+    } else {
+        Severity::Warn
+    };
+    let what = format!(
+        "{} gap(s) in the slave samples ({} s missing in all); the longest, {} s, is integrated as a single increment",
+        g.count,
+        g3(g.total_s),
+        g3(g.longest_s)
+    );
+    gap_finding(g, sev, "slave_gap", SLAVE_FILE, what)
+}
+
 fn master_gap_finding(g: Gaps) -> Finding {
-    Finding::new(
-        Severity::Warn,
-        "master_gap",
-        format!(
-            "{} gap(s) in the master messages ({} s without a message in all, the longest {} s)",
-            g.count,
-            g3(g.total_s),
-            g3(g.longest_s)
-        ),
-    )
-    .at(g.longest_at.at(MASTER_FILE))
-    .num("gaps", g.count as f64)
-    .num("missing_s", g.total_s)
-    .num("longest_s", g.longest_s)
-    .num("median_interval_s", g.median_s)
+    let what = format!(
+        "{} gap(s) in the master messages ({} s without a message in all, the longest {} s)",
+        g.count,
+        g3(g.total_s),
+        g3(g.longest_s)
+    );
+    gap_finding(g, Severity::Warn, "master_gap", MASTER_FILE, what)
 }
 
 /// Distance (m) between two nearby geodetic positions (degrees).
@@ -618,8 +613,9 @@ impl Scan {
                 sev,
                 "master_attitude_jump",
                 format!(
-                    "the master's attitude jumps {count} time(s) faster than {ATTITUDE_JUMP_RADPS} rad/s; the largest, {} °/s, is at the message named",
-                    g3(worst.0.to_degrees())
+                    "the master's attitude jumps {count} time(s) faster than {}; the largest, {}, is at the message named",
+                    show(ATTITUDE_JUMP_RADPS, RATE),
+                    show(worst.0, RATE)
                 ),
             )
             .at(worst.1.at(MASTER_FILE))

@@ -9,6 +9,7 @@ use super::{g3, Finding, Severity};
 use crate::calib::config::CalibConfig;
 use crate::calib::residuals::ChannelResidual;
 use crate::calib::run::CalibResult;
+use crate::report::units::{show, ACCEL_BIAS, ANGLE, GYRO_BIAS};
 use flexcal_core::engine::PENDING_DEPTH;
 use flexcal_core::stats::chi2_quantile;
 use serde_json::json;
@@ -301,11 +302,13 @@ fn sigma_and_prior(cfg: &CalibConfig, res: &CalibResult) -> Vec<Finding> {
         last.accel_bias_sigma,
         last.misalignment_sigma,
     ];
+    let units = [GYRO_BIAS, ACCEL_BIAS, ANGLE];
     let mut out = Vec::new();
     for q in 0..3 {
         for a in 0..3 {
             let (x, s, s0) = (values[q][a], sigmas[q][a], prior[q]);
             let what = format!("{} {}", STATES[q], AXES[a]);
+            let u = units[q];
             if observed[q] && s > SIGMA_FALL * s0 {
                 out.push(
                     Finding::new(
@@ -313,9 +316,9 @@ fn sigma_and_prior(cfg: &CalibConfig, res: &CalibResult) -> Vec<Finding> {
                         "sigma_not_falling",
                         format!(
                             "{what}: σ {} is still {:.0}% of its prior {}, though the matching ({}) observes it: the motion did not excite it, or the run was too short",
-                            g3(s),
+                            show(s, u),
                             100.0 * s / s0,
-                            g3(s0),
+                            show(s0, u),
                             cfg.matching.join(", ")
                         ),
                     )
@@ -331,9 +334,9 @@ fn sigma_and_prior(cfg: &CalibConfig, res: &CalibResult) -> Vec<Finding> {
                         "estimate_beyond_prior",
                         format!(
                             "{what}: estimate {} is {} prior σ from 0 (prior σ {}): the configuration's sensor grade does not fit this sensor",
-                            g3(x),
+                            show(x, u),
                             g3(x.abs() / s0),
-                            g3(s0)
+                            show(s0, u)
                         ),
                     )
                     .at(what)
