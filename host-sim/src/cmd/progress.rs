@@ -32,16 +32,16 @@ impl Progress {
 
     /// Says which phase the command is in now (its total not known).
     pub fn phase(&self, phase: &str) {
-        self.style(SPINNER);
         self.0.set_message(phase.to_string());
+        self.style(SPINNER);
     }
 
     /// Starts a phase of `total` steps, none done yet.
     pub fn counted(&self, phase: &str, total: u64) {
-        self.style(BAR);
+        self.0.set_message(phase.to_string());
         self.0.set_length(total);
         self.0.set_position(0);
-        self.0.set_message(phase.to_string());
+        self.style(BAR);
     }
 
     /// Steps done in a counted phase.
