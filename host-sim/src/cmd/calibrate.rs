@@ -13,7 +13,7 @@ use crate::recording::{open_recording, read_recording, RecordingMeta, Truth, SLA
 use crate::report::markdown::{report_md, ReportInput};
 use crate::report::stream::{read_truth, StreamSink};
 use crate::report::summary::EstimatesCsv;
-use crate::report::units::{sig3, Unit, ACCEL_BIAS, ANGLE, GYRO_BIAS};
+use crate::report::units::{list, Unit, ACCEL_BIAS, ANGLE, GYRO_BIAS};
 use crate::report::{plots, summary};
 use crate::verdict::input::Scan;
 use crate::verdict::Verdict;
@@ -431,8 +431,12 @@ pub fn run(a: &Args) -> Result<(), String> {
         a.out.display()
     );
     let line = |name: &str, u: Unit, v: [f64; 3], s: [f64; 3]| {
-        let f = |x: [f64; 3]| x.map(|x| sig3(x * u.scale)).join(", ");
-        println!("  {name:<13} ({}): [{}] ± [{}]", u.name, f(v), f(s));
+        println!(
+            "  {name:<13} ({}): [{}] ± [{}]",
+            u.name,
+            list(&v, u),
+            list(&s, u)
+        );
     };
     line("gyro bias", GYRO_BIAS, last.gyro_bias, last.gyro_bias_sigma);
     line(
@@ -453,7 +457,7 @@ pub fn run(a: &Args) -> Result<(), String> {
         res.summary.gated
     );
     if let Some(s) = c.score {
-        let f = |x: [f64; 3], u: Unit| x.map(|x| sig3(x * u.scale)).join(", ");
+        let f = |x: [f64; 3], u: Unit| list(&x, u);
         println!(
             "  errors: gyro bias [{}] {}, accel bias [{}] {}, misalignment [{}] {}, NEES {:.2}",
             f(s.gyro_bias, GYRO_BIAS),

@@ -114,21 +114,15 @@ pub fn run(a: &Args) -> Result<(), String> {
         println!("  no effect found");
     }
     for t in &d.found {
-        use crate::report::units::{of_effect_unit, sig3};
+        use crate::report::units::{list, of_effect_unit};
         let u =
             Effect::from_name(t.effect).map_or(of_effect_unit(""), |e| of_effect_unit(e.unit()));
-        let f = |v: &[f64]| {
-            v.iter()
-                .map(|x| sig3(x * u.scale))
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
         println!(
             "  {} ({}): [{}] ± [{}] (Wald {:.1}, LR {:.1}, threshold {:.1})",
             t.effect,
             u.name,
-            f(&t.estimate),
-            f(&t.sigma),
+            list(&t.estimate, u),
+            list(&t.sigma, u),
             t.wald,
             t.likelihood_ratio,
             t.threshold

@@ -826,19 +826,14 @@ pub fn write_outputs(a: &Args, r: &Replayed) -> Result<(), String> {
         a.out.display()
     );
     for r in res.final_effects() {
-        let u = crate::report::units::of_effect_unit(r.effect.unit());
-        let f = |x: &[f64]| {
-            x.iter()
-                .map(|v| crate::report::units::sig3(v * u.scale))
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
+        use crate::report::units::{list, of_effect_unit};
+        let u = of_effect_unit(r.effect.unit());
         println!(
             "  {} ({}): [{}] ± [{}]",
             r.effect.name(),
             u.name,
-            f(&r.value),
-            f(&r.sigma)
+            list(&r.value, u),
+            list(&r.sigma, u)
         );
     }
     verdict.conclude()

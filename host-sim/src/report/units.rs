@@ -69,6 +69,14 @@ pub fn show(v: f64, u: Unit) -> String {
     format!("{} {}", sig3(v * u.scale), u.name)
 }
 
+/// SI values shown in unit `u` with 3 significant digits, comma separated (no unit name).
+pub fn list(v: &[f64], u: Unit) -> String {
+    v.iter()
+        .map(|x| sig3(x * u.scale))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 /// Angular rates of motion (not biases): rad/s → °/s.
 pub const RATE: Unit = Unit {
     name: "°/s",
