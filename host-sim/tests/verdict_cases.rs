@@ -7,12 +7,13 @@
 //! 0.5 s clock offset). None may PASS. The clean recording itself must PASS (control).
 
 use flexcal_sim::calib::config::CalibConfig;
-use flexcal_sim::calib::run::{run, Precision};
-use flexcal_sim::cmd::calibrate::prepare_config;
+use flexcal_sim::calib::run::Precision;
+use flexcal_sim::cmd::calibrate::calibrate;
 use flexcal_sim::cmd::common::ModelArgs;
-use flexcal_sim::recording::{read_recording, write_recording, Recording};
+use flexcal_sim::cmd::progress::Progress;
+use flexcal_sim::recording::{write_recording, Recording};
 use flexcal_sim::sim::{simulate, Scenario};
-use flexcal_sim::verdict::{of_calibration, Level, Severity, Verdict};
+use flexcal_sim::verdict::{Level, Severity, Verdict};
 use std::path::{Path, PathBuf};
 
 /// Duration of the clean recording (s): long enough for every state's σ to fall below
@@ -330,19 +331,19 @@ fn cases() -> Vec<Case> {
     ]
 }
 
-/// What `flexcal calibrate` decides about the recording in `dir`.
+/// What `flexcal calibrate` decides about the recording in `dir` (its estimates
+/// written beside it).
 fn verdict_of(dir: &Path) -> Result<Verdict, String> {
-    let rec = read_recording(dir).map_err(|e| e.to_string())?;
-    let p = prepare_config(&rec, dir, None, &ModelArgs::default())?;
-    let res = run(&rec, &p.cfg, Precision::F64)?;
-    Ok(of_calibration(
+    let progress = Progress::start("calibrating");
+    let c = calibrate(
         dir,
-        &rec,
-        p.config_file.as_deref(),
-        p.learned.as_ref(),
-        &p.cfg,
-        &res,
-    ))
+        None,
+        &ModelArgs::default(),
+        Precision::F64,
+        &dir.join("estimates.csv"),
+        &progress,
+    )?;
+    Ok(c.verdict)
 }
 
 fn write_case(root: &Path, i: usize, c: &Case, base: &(Recording, CalibConfig)) -> PathBuf {
@@ -457,4 +458,83 @@ fn montecarlo_refuses_zero_runs() {
     assert!(!o.status.success());
     assert!(stderr.contains("--runs must be at least 1"), "{stderr}");
     assert!(!stdout.contains("NaN"), "{stdout}");
+}
+
+/// `calibrate` reads the recording one sample at a time and keeps sums, not sequences:
+/// its estimates, counters, residual statistics and verdict are those of the run over
+/// the recording held in memory, and `estimates.csv` has a row per update.
+#[test]
+fn streaming_calibration_equals_the_one_in_memory() {
+    use flexcal_sim::calib::residuals::channel_residuals;
+    use flexcal_sim::calib::run::run;
+    use flexcal_sim::recording::read_recording;
+    use flexcal_sim::verdict::input::Scan;
+    use flexcal_sim::verdict::of_calibration;
+
+    let base = clean();
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = write_case(tmp.path(), 0, &case("clean", Level::Pass, ""), &base);
+    let estimates = tmp.path().join("estimates.csv");
+    let progress = Progress::start("calibrating");
+    let c = calibrate(
+        &dir,
+        None,
+        &ModelArgs::default(),
+        Precision::F64,
+        &estimates,
+        &progress,
+    )
+    .unwrap();
+    let rec = read_recording(&dir).unwrap();
+    let whole = run(&rec, &c.prepared.cfg, Precision::F64).unwrap();
+    assert_eq!(format!("{:?}", c.res.last()), format!("{:?}", whole.last()));
+    assert_eq!(
+        format!("{:?}", c.res.counters),
+        format!("{:?}", whole.counters)
+    );
+    let lines = std::fs::read_to_string(&estimates).unwrap().lines().count();
+    assert_eq!(lines, whole.rows.len() + 1);
+    let (a, b) = (
+        c.res.summary.residuals(),
+        channel_residuals(&whole.innovations),
+    );
+    assert_eq!(a.len(), b.len());
+    for (a, b) in a.iter().zip(&b) {
+        assert_eq!((a.count, a.nis_mean), (b.count, b.nis_mean));
+        assert!((a.ljung_box_q - b.ljung_box_q).abs() <= 1e-9 * b.ljung_box_q);
+    }
+    let again = of_calibration(
+        &mut Scan::of_dir(&dir).unwrap(),
+        c.prepared.config_file.as_deref(),
+        None,
+        &c.prepared.cfg,
+        &whole,
+    );
+    assert_eq!(again.lines(), c.verdict.lines());
+}
+
+/// An input finding names the exact line of its sample, comment lines counted.
+#[test]
+fn input_findings_name_the_exact_line() {
+    use flexcal_sim::verdict::input::Scan;
+
+    let mut base = clean();
+    base.0.master[10].height_m = 1e6;
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = write_case(tmp.path(), 0, &case("height", Level::Fail, ""), &base);
+    let path = dir.join("master.csv");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let (header, rest) = text.split_once('\n').unwrap();
+    std::fs::write(&path, format!("{header}\n# a comment\n\n{rest}")).unwrap();
+    let findings = Scan::of_dir(&dir).unwrap().findings();
+    let f = findings
+        .iter()
+        .find(|f| f.code == "height_implausible")
+        .unwrap();
+    // Header, comment, blank line, then message 0 on line 4: message 10 is on line 14.
+    assert!(
+        f.location.starts_with("master.csv line 14 (t = "),
+        "{}",
+        f.location
+    );
 }

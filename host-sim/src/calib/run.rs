@@ -3,7 +3,8 @@
 //! its time of validity), and gathers estimates, innovations and covariance checks.
 
 use super::config::CalibConfig;
-use crate::recording::Recording;
+use super::residuals::InnovationSummary;
+use crate::recording::{ImuSample, MasterMsg, Recording};
 use flexcal_core::augment::Effect;
 use flexcal_core::earth::Position;
 use flexcal_core::engine::{Counters, Engine, ImuIncrement, MasterNav, MatchReport, StepReports};
@@ -96,10 +97,13 @@ pub struct EffectRow {
 
 /// Everything a calibration run produced.
 pub struct CalibResult {
-    /// Estimates after every master update.
+    /// Estimates after every master update ([`run`]), or a thinned set that holds the
+    /// last one (a run into a [`RunSink`] that keeps less).
     pub rows: Vec<EstimateRow>,
-    /// Scalar innovations.
+    /// Scalar innovations ([`run`]; empty from a sink that does not keep them).
     pub innovations: Vec<Innovation>,
+    /// What the innovations add up to, whether they were kept or not.
+    pub summary: InnovationSummary,
     /// Input counters.
     pub counters: Counters,
     /// Filter health.
@@ -110,24 +114,15 @@ pub struct CalibResult {
     pub final_cov9: SMatrix<f64, 9, 9>,
     /// Precision used.
     pub precision: Precision,
-    /// Augmented effects' estimates after every master update (empty for the declared model).
+    /// Augmented effects' estimates after every master update (empty for the declared
+    /// model; from a sink that keeps less, the last of each effect).
     pub effect_rows: Vec<EffectRow>,
 }
 
 impl CalibResult {
     /// Mean normalized innovation squared over accepted scalar innovations (expect 1).
     pub fn nis_mean(&self) -> f64 {
-        let acc: Vec<f64> = self
-            .innovations
-            .iter()
-            .filter(|i| i.accepted)
-            .map(|i| i.value * i.value / i.variance)
-            .collect();
-        if acc.is_empty() {
-            0.0
-        } else {
-            acc.iter().sum::<f64>() / acc.len() as f64
-        }
+        self.summary.nis_mean()
     }
 
     /// The last estimates.
@@ -150,11 +145,91 @@ impl CalibResult {
     /// −2 log-likelihood of the innovations (up to the constant `n ln 2π`):
     /// `Σ ln s + ν²/s` over every scalar innovation, gated or not.
     pub fn neg2_log_likelihood(&self) -> f64 {
-        self.innovations
-            .iter()
-            .map(|i| i.variance.ln() + i.value * i.value / i.variance)
-            .sum()
+        self.summary.neg2_log_likelihood()
     }
+}
+
+/// Where a run's outputs go as they are produced, in time order.
+pub trait RunSink {
+    /// One scalar innovation.
+    fn innovation(&mut self, i: &Innovation);
+    /// The estimates after one master update.
+    fn row(&mut self, r: &EstimateRow);
+    /// An augmented effect's estimate after one master update.
+    fn effect(&mut self, e: EffectRow);
+}
+
+/// The sink of [`run`]: keeps everything, in memory.
+#[derive(Default)]
+pub struct KeepAll {
+    rows: Vec<EstimateRow>,
+    innovations: Vec<Innovation>,
+    effect_rows: Vec<EffectRow>,
+}
+
+impl RunSink for KeepAll {
+    fn innovation(&mut self, i: &Innovation) {
+        self.innovations.push(*i);
+    }
+    fn row(&mut self, r: &EstimateRow) {
+        self.rows.push(*r);
+    }
+    fn effect(&mut self, e: EffectRow) {
+        self.effect_rows.push(e);
+    }
+}
+
+/// What a run produced besides what went into its sink.
+pub struct RunEnd {
+    /// What the innovations add up to.
+    pub summary: InnovationSummary,
+    /// Input counters.
+    pub counters: Counters,
+    /// Filter health.
+    pub health: Health,
+    /// Covariance checks.
+    pub covariance: CovarianceCheck,
+    /// Final covariance of (gyro bias, accel bias, misalignment), physical units.
+    pub final_cov9: SMatrix<f64, 9, 9>,
+    /// Precision used.
+    pub precision: Precision,
+}
+
+impl RunEnd {
+    /// The result of a run, with the rows, innovations and effect rows a sink kept.
+    pub fn into_result(
+        self,
+        rows: Vec<EstimateRow>,
+        innovations: Vec<Innovation>,
+        effect_rows: Vec<EffectRow>,
+    ) -> CalibResult {
+        CalibResult {
+            rows,
+            innovations,
+            summary: self.summary,
+            counters: self.counters,
+            health: self.health,
+            covariance: self.covariance,
+            final_cov9: self.final_cov9,
+            precision: self.precision,
+            effect_rows,
+        }
+    }
+}
+
+/// The samples a run reads, in time order: the slave's clock-starting time, then its
+/// samples and the master's messages, each possibly an error of the source (a line of
+/// a file), which ends the run with that error.
+pub struct Source<'a> {
+    /// Time of the slave's first line (s).
+    pub imu_t0: f64,
+    /// Lever arm `r0`, master body frame, metres.
+    pub lever_arm_m: [f64; 3],
+    /// The slave's samples after the first line.
+    pub imu: &'a mut dyn Iterator<Item = Result<ImuSample, String>>,
+    /// The master's messages. Those after the slave's last sample are read to the end
+    /// (their errors count) but not handed to the engine.
+    pub master: &'a mut dyn Iterator<Item = Result<MasterMsg, String>>,
 }
 
 fn to3<T: Real>(v: &Vector3<T>) -> [f64; 3] {
@@ -176,21 +251,24 @@ fn master_nav<T: Real>(m: &crate::recording::MasterMsg) -> MasterNav<T> {
     }
 }
 
-fn record_report<T: Real>(r: &MatchReport<T>, out: &mut Vec<Innovation>) {
-    for (channel, ups) in [r.velocity, r.attitude, r.angular_rate].iter().enumerate() {
-        if let Some(ups) = ups {
-            for (axis, u) in ups.iter().enumerate() {
-                out.push(Innovation {
+/// The scalar innovations of one master update.
+fn innovations_of<T: Real>(r: &MatchReport<T>) -> impl Iterator<Item = Innovation> + '_ {
+    [r.velocity, r.attitude, r.angular_rate]
+        .into_iter()
+        .enumerate()
+        .filter_map(|(channel, ups)| ups.map(|ups| (channel, ups)))
+        .flat_map(move |(channel, ups)| {
+            ups.into_iter()
+                .enumerate()
+                .map(move |(axis, u)| Innovation {
                     t: r.t,
                     channel,
                     axis,
                     value: u.innovation.to_f64(),
                     variance: u.variance.to_f64(),
                     accepted: u.accepted,
-                });
-            }
-        }
-    }
+                })
+        })
 }
 
 /// The Wald statistic `x̂ᵀ P⁻¹ x̂` of states `offset..offset + k`.
@@ -221,24 +299,23 @@ pub struct RunOptions {
 
 /// Calibrates a recording with a configuration, in precision `T` and state dimension `S`.
 fn run_generic<T: Real, const S: usize>(
-    rec: &Recording,
+    src: Source<'_>,
     cfg: &CalibConfig,
     precision: Precision,
     opts: &RunOptions,
-) -> Result<CalibResult, String> {
+    sink: &mut dyn RunSink,
+) -> Result<RunEnd, String> {
     let mut frozen = false;
-    let mut engine = Engine::<T, S>::new(cfg.engine_config::<T>(rec.meta.lever_arm_m))
+    let mut engine = Engine::<T, S>::new(cfg.engine_config::<T>(src.lever_arm_m))
         .map_err(|e| format!("engine configuration refused: {e:?}"))?;
     let aug = engine.config().augmentation;
-    let mut effect_rows = Vec::new();
-    let mut rows = Vec::with_capacity(rec.master.len());
-    let mut innovations = Vec::new();
+    let mut summary = InnovationSummary::default();
     let mut cov = CovarianceCheck {
         min_diagonal: f64::INFINITY,
         ..Default::default()
     };
     let start = ImuIncrement {
-        t: rec.imu_t0,
+        t: src.imu_t0,
         dtheta_b: Vector3::zeros(),
         dv_b: Vector3::zeros(),
     };
@@ -246,61 +323,63 @@ fn run_generic<T: Real, const S: usize>(
     let mut reports = StepReports::new();
     engine
         .push_imu(start, &mut reports)
-        .map_err(|e| format!("IMU start at t = {}: {e:?}", rec.imu_t0))?;
-    let mut masters = rec.master.iter().peekable();
-    let mut handle = |engine: &Engine<T, S>,
-                      reports: &[MatchReport<T>],
-                      rows: &mut Vec<EstimateRow>,
-                      cov: &mut CovarianceCheck| {
-        for r in reports {
-            record_report(r, &mut innovations);
-            if opts.innovations_only {
-                continue;
-            }
-            for b in aug.blocks() {
-                if let Some(est) = engine.effect_estimate(b.effect) {
-                    let k = b.effect.states();
-                    // The delay's state is the error of its fed-back nominal value.
-                    let offset = b.offset;
-                    effect_rows.push(EffectRow {
-                        t: r.t,
-                        effect: b.effect,
-                        value: est.value[..k].iter().map(|v| v.to_f64()).collect(),
-                        sigma: est.sigma[..k].iter().map(|v| v.to_f64()).collect(),
-                        wald: if b.effect == Effect::TimeDelay {
-                            let (v, s) = (est.value[0].to_f64(), est.sigma[0].to_f64());
-                            v * v / (s * s)
-                        } else {
-                            wald(engine, offset, k)
-                        },
-                    });
+        .map_err(|e| format!("IMU start at t = {}: {e:?}", src.imu_t0))?;
+    let mut masters = src.master.peekable();
+    let mut handle =
+        |engine: &Engine<T, S>, reports: &[MatchReport<T>], cov: &mut CovarianceCheck| {
+            for r in reports {
+                for i in innovations_of(r) {
+                    summary.push(&i);
+                    sink.innovation(&i);
+                }
+                if opts.innovations_only {
+                    continue;
+                }
+                for b in aug.blocks() {
+                    if let Some(est) = engine.effect_estimate(b.effect) {
+                        let k = b.effect.states();
+                        // The delay's state is the error of its fed-back nominal value.
+                        let offset = b.offset;
+                        sink.effect(EffectRow {
+                            t: r.t,
+                            effect: b.effect,
+                            value: est.value[..k].iter().map(|v| v.to_f64()).collect(),
+                            sigma: est.sigma[..k].iter().map(|v| v.to_f64()).collect(),
+                            wald: if b.effect == Effect::TimeDelay {
+                                let (v, s) = (est.value[0].to_f64(), est.sigma[0].to_f64());
+                                v * v / (s * s)
+                            } else {
+                                wald(engine, offset, k)
+                            },
+                        });
+                    }
+                }
+                let e = engine.estimates();
+                sink.row(&EstimateRow {
+                    t: r.t,
+                    gyro_bias: to3(&e.gyro_bias),
+                    gyro_bias_sigma: to3(&e.gyro_bias_sigma),
+                    accel_bias: to3(&e.accel_bias),
+                    accel_bias_sigma: to3(&e.accel_bias_sigma),
+                    misalignment: to3(&e.misalignment),
+                    misalignment_sigma: to3(&e.misalignment_sigma),
+                    flexure: to3(&e.flexure),
+                    flexure_sigma: to3(&e.flexure_sigma),
+                });
+                // One copy of the scaled covariance per update, checked in the engine's own
+                // precision (the board's f32 path included): its smallest variance and its
+                // Cholesky factorization. Its asymmetry is zero by construction (the filter
+                // keeps one triangle), so it is not recomputed.
+                let p = engine.filter().scaled_covariance();
+                cov.checks += 1;
+                cov.min_diagonal = cov.min_diagonal.min(p.diagonal().min().to_f64());
+                if p.cholesky().is_none() {
+                    cov.not_positive_definite += 1;
                 }
             }
-            let e = engine.estimates();
-            rows.push(EstimateRow {
-                t: r.t,
-                gyro_bias: to3(&e.gyro_bias),
-                gyro_bias_sigma: to3(&e.gyro_bias_sigma),
-                accel_bias: to3(&e.accel_bias),
-                accel_bias_sigma: to3(&e.accel_bias_sigma),
-                misalignment: to3(&e.misalignment),
-                misalignment_sigma: to3(&e.misalignment_sigma),
-                flexure: to3(&e.flexure),
-                flexure_sigma: to3(&e.flexure_sigma),
-            });
-            // One copy of the scaled covariance per update, checked in the engine's own
-            // precision (the board's f32 path included): its smallest variance and its
-            // Cholesky factorization. Its asymmetry is zero by construction (the filter
-            // keeps one triangle), so it is not recomputed.
-            let p = engine.filter().scaled_covariance();
-            cov.checks += 1;
-            cov.min_diagonal = cov.min_diagonal.min(p.diagonal().min().to_f64());
-            if p.cholesky().is_none() {
-                cov.not_positive_definite += 1;
-            }
-        }
-    };
-    for s in &rec.imu {
+        };
+    for s in src.imu {
+        let s = s?;
         let inc = ImuIncrement {
             t: s.t,
             dtheta_b: Vector3::from(s.dtheta_rad.map(T::of)),
@@ -309,30 +388,32 @@ fn run_generic<T: Real, const S: usize>(
         engine
             .push_imu(inc, &mut reports)
             .map_err(|e| format!("IMU sample at t = {}: {e:?}", s.t))?;
-        handle(&engine, &reports, &mut rows, &mut cov);
-        while let Some(m) = masters.next_if(|m| m.t <= s.t) {
+        handle(&engine, &reports, &mut cov);
+        while let Some(m) = masters.next_if(|m| !matches!(m, Ok(m) if m.t > s.t)) {
+            let m = m?;
             if !frozen && opts.freeze_at_s.is_some_and(|t| m.t >= t) {
                 engine.freeze_calibration();
                 frozen = true;
             }
             // Refused messages are counted by the engine and reported in the summary;
             // the matches a call made before refusing (a queue overflow) are kept.
-            let _ = engine.push_master(master_nav::<T>(m), &mut reports);
-            handle(&engine, &reports, &mut rows, &mut cov);
+            let _ = engine.push_master(master_nav::<T>(&m), &mut reports);
+            handle(&engine, &reports, &mut cov);
         }
+    }
+    for m in masters {
+        m?;
     }
     let p = engine.filter().covariance();
     let idx = [BG, BG + 1, BG + 2, BA, BA + 1, BA + 2, MU, MU + 1, MU + 2];
     let final_cov9 = SMatrix::<f64, 9, 9>::from_fn(|i, j| p[(idx[i], idx[j])].to_f64());
-    Ok(CalibResult {
-        rows,
-        innovations,
+    Ok(RunEnd {
+        summary,
         counters: engine.counters(),
         health: engine.health(),
         covariance: cov,
         final_cov9,
         precision,
-        effect_rows,
     })
 }
 
@@ -353,13 +434,36 @@ pub fn run_with(
     precision: Precision,
     opts: &RunOptions,
 ) -> Result<CalibResult, String> {
+    let mut imu = rec.imu.iter().cloned().map(Ok);
+    let mut master = rec.master.iter().cloned().map(Ok);
+    let src = Source {
+        imu_t0: rec.imu_t0,
+        lever_arm_m: rec.meta.lever_arm_m,
+        imu: &mut imu,
+        master: &mut master,
+    };
+    let mut all = KeepAll::default();
+    let end = run_into(src, cfg, precision, opts, &mut all)?;
+    Ok(end.into_result(all.rows, all.innovations, all.effect_rows))
+}
+
+/// Runs the engine over `src` in the requested precision, handing every output to
+/// `sink` as it is produced: memory does not grow with the run's length unless the
+/// sink keeps what it is given.
+pub fn run_into(
+    src: Source<'_>,
+    cfg: &CalibConfig,
+    precision: Precision,
+    opts: &RunOptions,
+    sink: &mut dyn RunSink,
+) -> Result<RunEnd, String> {
     let dim = cfg.augmentation::<f64>()?.dimension();
     macro_rules! dispatch {
         ($($s:literal),*) => {
             $(if dim <= $s {
                 return match precision {
-                    Precision::F64 => run_generic::<f64, $s>(rec, cfg, precision, opts),
-                    Precision::F32 => run_generic::<f32, $s>(rec, cfg, precision, opts),
+                    Precision::F64 => run_generic::<f64, $s>(src, cfg, precision, opts, sink),
+                    Precision::F32 => run_generic::<f32, $s>(src, cfg, precision, opts, sink),
                 };
             })*
         };

@@ -3,16 +3,21 @@
 
 use crate::calib::config::CalibConfig;
 use crate::calib::flexure_id::identify_flexure;
-use crate::calib::run::{self as runner, Precision};
-use crate::calib::score::score;
+use crate::calib::run::{run_into, CalibResult, Precision, RunOptions, Source};
+use crate::calib::score::{score, Score};
 use crate::cmd::common::ModelArgs;
 use crate::cmd::progress::Progress;
 use crate::learn::increments::IncrementNoise;
 use crate::learn::{learn, model_toml, start_from_nothing, LearnOptions, Learned};
-use crate::recording::read_recording;
+use crate::recording::{open_recording, read_recording, RecordingMeta, Truth, SLAVE_FILE};
 use crate::report::markdown::{report_md, ReportInput};
-use crate::report::units::{sig3, Unit, ACCEL_BIAS, ANGLE, GYRO_BIAS};
+use crate::report::stream::{read_truth, StreamSink};
+use crate::report::summary::EstimatesCsv;
+use crate::report::units::{list, Unit, ACCEL_BIAS, ANGLE, GYRO_BIAS};
 use crate::report::{plots, summary};
+use crate::verdict::input::Scan;
+use crate::verdict::Verdict;
+use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `flexcal calibrate`.
@@ -166,12 +171,10 @@ pub fn prepare_config(
     let config_file = declared.as_ref().map(|(_, p)| p.clone());
     let fixed = declared.as_ref().is_some_and(|(c, _)| !c.tune);
     if fixed {
-        let Some((mut cfg, origin)) = declared else {
+        let Some((cfg, origin)) = declared else {
             return Err("internal: declared configuration vanished".into());
         };
-        model.apply(&mut cfg)?;
-        drop_rate_matching_without_rate(rec, &mut cfg);
-        eprintln!("flexcal: configuration: {}", origin.display());
+        let mut cfg = apply_declared(cfg, &origin, model, rec.master_has_rate())?;
         let flexure_source = choose_flexure(rec, &mut cfg);
         eprintln!("flexcal: flexure model: {flexure_source}");
         return Ok(Prepared {
@@ -193,7 +196,7 @@ pub fn prepare_config(
         }
     };
     model.apply(&mut start)?;
-    drop_rate_matching_without_rate(rec, &mut start);
+    drop_rate_matching_without_rate(rec.master_has_rate(), &mut start);
     let learned = learn_and_say(rec, &start, &origin, inc)?;
     Ok(Prepared {
         cfg: learned.config.clone(),
@@ -210,74 +213,226 @@ pub fn prepare_config(
     })
 }
 
-fn drop_rate_matching_without_rate(rec: &crate::recording::Recording, cfg: &mut CalibConfig) {
-    if cfg.matching_flags().angular_rate && !rec.master_has_rate() {
+/// A declared configuration taken as given: the model switches applied, angular-rate
+/// matching dropped when the master gives no rate (`master_has_rate`); says its file.
+fn apply_declared(
+    mut cfg: CalibConfig,
+    origin: &Path,
+    model: &ModelArgs,
+    master_has_rate: bool,
+) -> Result<CalibConfig, String> {
+    model.apply(&mut cfg)?;
+    drop_rate_matching_without_rate(master_has_rate, &mut cfg);
+    eprintln!("flexcal: configuration: {}", origin.display());
+    Ok(cfg)
+}
+
+fn drop_rate_matching_without_rate(master_has_rate: bool, cfg: &mut CalibConfig) {
+    if cfg.matching_flags().angular_rate && !master_has_rate {
         cfg.matching.retain(|m| m != "angular_rate");
         eprintln!("flexcal: the master gives no angular rate: angular-rate matching is off (velocity and attitude matching only)");
     }
 }
 
+/// A calibration of a recording folder, before its outputs other than
+/// `estimates.csv` are written.
+pub struct Calibration {
+    /// The recording's description.
+    pub meta: RecordingMeta,
+    /// From the slave's first line to its last sample (s).
+    pub duration_s: f64,
+    /// Master messages in the recording.
+    pub master_total: usize,
+    /// How the configuration was chosen, and the configuration.
+    pub prepared: Prepared,
+    /// The run: every update's estimates thinned to
+    /// [`THIN_CAPACITY`](crate::report::stream::THIN_CAPACITY) with the last kept, the
+    /// innovations summed up, not kept.
+    pub res: CalibResult,
+    /// The truth thinned like the rows, for the plots, when the recording has one.
+    pub truth: Option<Truth>,
+    /// Errors against the truth.
+    pub score: Option<Score>,
+    /// The verdict.
+    pub verdict: Verdict,
+}
+
+/// Whether the configuration of a calibration needs the whole recording in memory:
+/// to learn the model (nothing declared, or `tune = true`) or to identify the flexure.
+fn needs_whole_recording(declared: Option<&(CalibConfig, PathBuf)>, model: &ModelArgs) -> bool {
+    match declared {
+        Some((c, _)) => c.tune || c.identify_flexure || model.identify_flexure,
+        None => true,
+    }
+}
+
+/// Calibrates the recording in `dir` as `flexcal calibrate` does, writing
+/// `estimates.csv` to `estimates` as the filter runs. The recording is read once, one
+/// sample at a time, the checks of the verdict fed as it goes; only when the model is
+/// learned or the flexure identified is it first read whole for that (and dropped
+/// before the run).
+pub fn calibrate(
+    dir: &Path,
+    explicit: Option<&Path>,
+    model: &ModelArgs,
+    precision: Precision,
+    estimates: &Path,
+    progress: &Progress,
+) -> Result<Calibration, String> {
+    let declared = resolve_config(dir, explicit)?;
+    let mut stream = open_recording(dir).map_err(|e| e.to_string())?;
+    let prepared = if needs_whole_recording(declared.as_ref(), model) {
+        progress.phase("reading the whole recording to learn its model");
+        let rec = read_recording(dir).map_err(|e| e.to_string())?;
+        progress.phase("preparing the model");
+        prepare_config(&rec, dir, explicit, model)?
+    } else {
+        let Some((cfg, origin)) = declared else {
+            return Err("internal: declared configuration vanished".into());
+        };
+        let cfg = apply_declared(cfg, &origin, model, stream.master.has_rate())?;
+        eprintln!("flexcal: flexure model: configured");
+        Prepared {
+            cfg,
+            flexure_source: "configured".into(),
+            learned: None,
+            config_file: Some(origin),
+        }
+    };
+    let scan = RefCell::new(Scan::new(
+        dir,
+        stream.meta.clone(),
+        stream.slave.t0(),
+        stream.slave.line(),
+    ));
+    let slave_t0 = stream.slave.t0();
+    let slave_bytes = std::fs::metadata(dir.join(SLAVE_FILE)).map_or(0, |m| m.len());
+    progress.counted("filtering", slave_bytes);
+    let slave = &mut stream.slave;
+    let mut imu = std::iter::from_fn(|| match slave.next() {
+        Some(Ok(s)) => {
+            scan.borrow_mut().slave(&s, slave.line());
+            progress.set(slave.bytes_read());
+            Some(Ok(s))
+        }
+        Some(Err(e)) => Some(Err(e.to_string())),
+        None => {
+            scan.borrow_mut().slave_finished();
+            None
+        }
+    });
+    let master_reader = &mut stream.master;
+    let mut master = std::iter::from_fn(|| match master_reader.next()? {
+        Ok(m) => {
+            scan.borrow_mut().master(&m, master_reader.line());
+            Some(Ok(m))
+        }
+        Err(e) => Some(Err(e.to_string())),
+    });
+    let src = Source {
+        imu_t0: slave_t0,
+        lever_arm_m: stream.meta.lever_arm_m,
+        imu: &mut imu,
+        master: &mut master,
+    };
+    let csv =
+        EstimatesCsv::create(estimates).map_err(|e| format!("{}: {e}", estimates.display()))?;
+    let mut sink = StreamSink::new(csv);
+    let end = run_into(
+        src,
+        &prepared.cfg,
+        precision,
+        &RunOptions::default(),
+        &mut sink,
+    )?;
+    let (rows, effects) = sink
+        .finish()
+        .map_err(|e| format!("{}: {e}", estimates.display()))?;
+    let res = end.into_result(rows, Vec::new(), effects);
+    let mut scan = scan.into_inner();
+    let (t0, t1) = scan.slave_span();
+    let (truth, score) = match stream.truth {
+        Some(reader) => {
+            progress.phase("reading the truth");
+            let t_end = res.rows.last().map_or(t1, |r| r.t);
+            let (thinned, nearest) = read_truth(reader, t_end).map_err(|e| e.to_string())?;
+            let sc = score(&res, &nearest);
+            (Some(thinned), sc)
+        }
+        None => (None, None),
+    };
+    progress.phase("checking");
+    let verdict = crate::verdict::of_calibration(
+        &mut scan,
+        prepared.config_file.as_deref(),
+        prepared.learned.as_ref(),
+        &prepared.cfg,
+        &res,
+    );
+    Ok(Calibration {
+        meta: stream.meta,
+        duration_s: t1 - t0,
+        master_total: scan.master_total(),
+        prepared,
+        res,
+        truth,
+        score,
+        verdict,
+    })
+}
+
 /// Runs `flexcal calibrate`.
 pub fn run(a: &Args) -> Result<(), String> {
+    std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
     let progress = Progress::start("reading the recording");
-    let rec = read_recording(&a.rec_dir).map_err(|e| e.to_string())?;
-    progress.phase("preparing the model");
+    let c = calibrate(
+        &a.rec_dir,
+        a.config.as_deref(),
+        &a.model,
+        a.precision,
+        &a.out.join("estimates.csv"),
+        &progress,
+    )?;
+    progress.phase("writing the outputs");
     let Prepared {
         cfg,
         flexure_source,
         learned,
         config_file,
-    } = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &a.model)?;
-    progress.phase("filtering");
-    let res = runner::run(&rec, &cfg, a.precision)?;
-    progress.phase("checking and writing the outputs");
-    let sc = rec.truth.as_ref().and_then(|t| score(&res, t));
-    std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
-    let duration = match (rec.imu.first(), rec.imu.last()) {
-        (Some(_), Some(l)) => l.t - rec.imu_t0,
-        _ => 0.0,
-    };
+    } = &c.prepared;
+    let (res, verdict, duration) = (&c.res, &c.verdict, c.duration_s);
     let doc = summary::summary_json(
         &a.rec_dir.display().to_string(),
         duration,
-        &cfg,
-        &flexure_source,
-        &res,
-        sc.as_ref(),
+        cfg,
+        flexure_source,
+        res,
+        c.score.as_ref(),
     );
     let mut doc = with_learned(doc, learned.as_ref());
-    let verdict = crate::verdict::of_calibration(
-        &a.rec_dir,
-        &rec,
-        config_file.as_deref(),
-        learned.as_ref(),
-        &cfg,
-        &res,
-    );
     verdict.insert_into(&mut doc);
-    if let Some(l) = &learned {
+    if let Some(l) = learned {
         write_model_toml(&a.out, l)?;
     }
     let text = serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())?;
     let path = a.out.join("summary.json");
     std::fs::write(&path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
-    summary::write_estimates_csv(&a.out.join("estimates.csv"), &res.rows)
-        .map_err(|e| e.to_string())?;
     let label = a.rec_dir.display().to_string();
-    let plot_files = plots::write_estimate_plots(&a.out, &label, &res.rows, rec.truth.as_ref())
+    let plot_files = plots::write_estimate_plots(&a.out, &label, &res.rows, c.truth.as_ref())
         .map_err(|e| e.to_string())?;
     let report = ReportInput {
         label: &label,
-        rec: &rec,
+        meta: &c.meta,
+        master_total: c.master_total,
         duration_s: duration,
-        cfg: &cfg,
+        cfg,
         model_origin: model_origin(config_file.as_deref(), learned.as_ref()),
-        flexure_source: &flexure_source,
-        score: sc.as_ref(),
+        flexure_source,
+        score: c.score.as_ref(),
         plots: &plot_files,
     };
     let path = a.out.join("report.md");
-    std::fs::write(&path, report_md(&report, &res, &verdict))
+    std::fs::write(&path, report_md(&report, res, verdict))
         .map_err(|e| format!("{}: {e}", path.display()))?;
     drop(progress);
     let last = res.last();
@@ -289,8 +444,12 @@ pub fn run(a: &Args) -> Result<(), String> {
         a.out.display()
     );
     let line = |name: &str, u: Unit, v: [f64; 3], s: [f64; 3]| {
-        let f = |x: [f64; 3]| x.map(|x| sig3(x * u.scale)).join(", ");
-        println!("  {name:<13} ({}): [{}] ± [{}]", u.name, f(v), f(s));
+        println!(
+            "  {name:<13} ({}): [{}] ± [{}]",
+            u.name,
+            list(&v, u),
+            list(&s, u)
+        );
     };
     line("gyro bias", GYRO_BIAS, last.gyro_bias, last.gyro_bias_sigma);
     line(
@@ -308,10 +467,10 @@ pub fn run(a: &Args) -> Result<(), String> {
     println!(
         "  NIS mean {:.3}, gated {}",
         res.nis_mean(),
-        res.innovations.iter().filter(|i| !i.accepted).count()
+        res.summary.gated
     );
-    if let Some(s) = sc {
-        let f = |x: [f64; 3], u: Unit| x.map(|x| sig3(x * u.scale)).join(", ");
+    if let Some(s) = c.score {
+        let f = |x: [f64; 3], u: Unit| list(&x, u);
         println!(
             "  errors: gyro bias [{}] {}, accel bias [{}] {}, misalignment [{}] {}, NEES {:.2}",
             f(s.gyro_bias, GYRO_BIAS),

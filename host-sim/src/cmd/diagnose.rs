@@ -68,9 +68,9 @@ pub fn run(a: &Args) -> Result<(), String> {
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
     let label = a.rec_dir.display().to_string();
     let command: String = std::env::args().collect::<Vec<_>>().join(" ");
+    let mut scan = crate::verdict::input::Scan::of_dir(&a.rec_dir)?;
     let mut verdict = crate::verdict::of_calibration(
-        &a.rec_dir,
-        &rec,
+        &mut scan,
         prepared.config_file.as_deref(),
         prepared.learned.as_ref(),
         &d.after.cfg,
@@ -114,21 +114,15 @@ pub fn run(a: &Args) -> Result<(), String> {
         println!("  no effect found");
     }
     for t in &d.found {
-        use crate::report::units::{of_effect_unit, sig3};
+        use crate::report::units::{list, of_effect_unit};
         let u =
             Effect::from_name(t.effect).map_or(of_effect_unit(""), |e| of_effect_unit(e.unit()));
-        let f = |v: &[f64]| {
-            v.iter()
-                .map(|x| sig3(x * u.scale))
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
         println!(
             "  {} ({}): [{}] ± [{}] (Wald {:.1}, LR {:.1}, threshold {:.1})",
             t.effect,
             u.name,
-            f(&t.estimate),
-            f(&t.sigma),
+            list(&t.estimate, u),
+            list(&t.sigma, u),
             t.wald,
             t.likelihood_ratio,
             t.threshold

@@ -568,6 +568,7 @@ pub fn result_from_board(run: &QemuRun) -> Result<CalibResult, String> {
     Ok(CalibResult {
         rows,
         innovations: Vec::new(),
+        summary: Default::default(),
         counters: status.engine,
         health: status.health,
         covariance: CovarianceCheck::default(),
@@ -764,9 +765,9 @@ pub fn write_outputs(a: &Args, r: &Replayed) -> Result<(), String> {
         );
     }
     let mut doc = crate::cmd::calibrate::with_learned(doc, r.learned.as_ref());
+    let mut scan = crate::verdict::input::Scan::of_dir(&a.rec_dir)?;
     let mut verdict = crate::verdict::of_calibration(
-        &a.rec_dir,
-        rec,
+        &mut scan,
         r.config_file.as_deref(),
         r.learned.as_ref(),
         cfg,
@@ -796,7 +797,8 @@ pub fn write_outputs(a: &Args, r: &Replayed) -> Result<(), String> {
             .map_err(|e| e.to_string())?;
     let report = crate::report::markdown::ReportInput {
         label: &label,
-        rec,
+        meta: &rec.meta,
+        master_total: rec.master.len(),
         duration_s: duration,
         cfg,
         model_origin: crate::cmd::calibrate::model_origin(
@@ -824,12 +826,14 @@ pub fn write_outputs(a: &Args, r: &Replayed) -> Result<(), String> {
         a.out.display()
     );
     for r in res.final_effects() {
+        use crate::report::units::{list, of_effect_unit};
+        let u = of_effect_unit(r.effect.unit());
         println!(
-            "  {} ({}): {:?} ± {:?}",
+            "  {} ({}): [{}] ± [{}]",
             r.effect.name(),
-            r.effect.unit(),
-            r.value,
-            r.sigma
+            u.name,
+            list(&r.value, u),
+            list(&r.sigma, u)
         );
     }
     verdict.conclude()

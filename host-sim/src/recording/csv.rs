@@ -10,27 +10,39 @@
 //!   unique, and every data line must have exactly as many fields;
 //! - numbers are what `f64::from_str` accepts, and must be finite.
 
-use std::iter::Enumerate;
-use std::path::Path;
-use std::str::Lines;
+use std::fs::File;
+use std::io::{BufRead, BufReader, ErrorKind as IoKind};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
 
 use super::error::{quoted, ErrorKind, RecordingError};
 
-/// A CSV file being read: its header, and the data lines still to come.
-pub(crate) struct CsvText<'t> {
-    path: &'t Path,
-    header: Vec<&'t str>,
+/// Byte-order mark that some spreadsheet tools put at the start of UTF-8 files.
+const BOM: &str = "\u{feff}";
+
+/// A CSV file being read line by line: its header, and the data lines still to
+/// come. Only the current line is held in memory, so a file of any length reads
+/// in memory bounded by its longest line.
+pub(crate) struct CsvReader<R> {
+    path: PathBuf,
+    input: R,
+    header: Vec<String>,
     header_line: usize,
-    lines: Enumerate<Lines<'t>>,
-    fields: Vec<&'t str>,
+    /// 1-based number of the line in `text`.
+    line: usize,
+    bytes: Vec<u8>,
+    consumed: u64,
+    text: String,
+    fields: Vec<Range<usize>>,
 }
 
 /// One data line, split into as many fields as the header has columns.
-pub(crate) struct Row<'c, 't> {
+pub(crate) struct Row<'c> {
     path: &'c Path,
-    header: &'c [&'t str],
+    header: &'c [String],
     line: usize,
-    fields: &'c [&'t str],
+    text: &'c str,
+    fields: &'c [Range<usize>],
 }
 
 /// Is this line a comment or blank, to be skipped?
@@ -39,31 +51,92 @@ fn is_skipped(line: &str) -> bool {
     trimmed.is_empty() || trimmed.starts_with('#')
 }
 
-/// Splits a line into trimmed fields.
-fn split_fields<'t>(line: &'t str, out: &mut Vec<&'t str>) {
+/// Splits a line into the byte ranges of its trimmed fields.
+fn split_fields(line: &str, out: &mut Vec<Range<usize>>) {
     out.clear();
-    out.extend(line.split(',').map(str::trim));
+    let mut start = 0;
+    for field in line.split(',') {
+        let lead = field.len() - field.trim_start().len();
+        let trimmed = field.trim();
+        out.push(start + lead..start + lead + trimmed.len());
+        start += field.len() + 1;
+    }
 }
 
-impl<'t> CsvText<'t> {
-    /// Finds and checks the header of `text`, read from `path`.
-    pub(crate) fn parse(path: &'t Path, text: &'t str) -> Result<Self, RecordingError> {
-        let mut lines = text.lines().enumerate();
-        let (index, header_text) = lines
-            .by_ref()
-            .find(|(_, line)| !is_skipped(line))
-            .ok_or_else(|| RecordingError::new(path, ErrorKind::EmptyFile))?;
-        let mut header = Vec::new();
-        split_fields(header_text, &mut header);
-        let csv = Self {
-            path,
-            header,
-            header_line: index + 1,
-            lines,
+/// Opens `path` for reading; a missing file is [`ErrorKind::MissingFile`].
+pub(crate) fn open(path: &Path) -> Result<BufReader<File>, RecordingError> {
+    File::open(path).map(BufReader::new).map_err(|e| {
+        let kind = if e.kind() == IoKind::NotFound {
+            ErrorKind::MissingFile
+        } else {
+            ErrorKind::Io(e)
+        };
+        RecordingError::new(path, kind)
+    })
+}
+
+impl<R: BufRead> CsvReader<R> {
+    /// Finds and checks the header of `input`, read from `path`.
+    pub(crate) fn new(path: &Path, input: R) -> Result<Self, RecordingError> {
+        let mut csv = Self {
+            path: path.to_path_buf(),
+            input,
+            header: Vec::new(),
+            header_line: 0,
+            line: 0,
+            bytes: Vec::new(),
+            consumed: 0,
+            text: String::new(),
             fields: Vec::new(),
         };
+        if !csv.next_line()? {
+            return Err(RecordingError::new(path, ErrorKind::EmptyFile));
+        }
+        split_fields(&csv.text, &mut csv.fields);
+        csv.header = csv
+            .fields
+            .iter()
+            .map(|r| csv.text.get(r.clone()).unwrap_or_default().to_owned())
+            .collect();
+        csv.header_line = csv.line;
         csv.check_header()?;
         Ok(csv)
+    }
+
+    /// Reads the next line that is neither blank nor a comment into `text`
+    /// (without its line end); `false` at the end of the file. Bytes that are
+    /// not UTF-8 are [`ErrorKind::NotUtf8`] at their line.
+    fn next_line(&mut self) -> Result<bool, RecordingError> {
+        loop {
+            self.bytes.clear();
+            let n = self
+                .input
+                .read_until(b'\n', &mut self.bytes)
+                .map_err(|e| RecordingError::new(&self.path, ErrorKind::Io(e)))?;
+            if n == 0 {
+                return Ok(false);
+            }
+            self.consumed += n as u64;
+            self.line += 1;
+            let bytes = std::mem::take(&mut self.bytes);
+            let text = String::from_utf8(bytes).map_err(|_| {
+                RecordingError::new(&self.path, ErrorKind::NotUtf8).at_line(self.line)
+            })?;
+            self.text = text;
+            if self.line == 1 && self.text.starts_with(BOM) {
+                self.text.drain(..BOM.len());
+            }
+            if self.text.ends_with('\n') {
+                self.text.pop();
+                if self.text.ends_with('\r') {
+                    self.text.pop();
+                }
+            }
+            if !is_skipped(&self.text) {
+                return Ok(true);
+            }
+            self.bytes = std::mem::take(&mut self.text).into_bytes();
+        }
     }
 
     /// Header names must be non-empty and unique.
@@ -82,14 +155,24 @@ impl<'t> CsvText<'t> {
         Ok(())
     }
 
+    /// Bytes of the file read so far.
+    pub(crate) fn bytes_read(&self) -> u64 {
+        self.consumed
+    }
+
+    /// The file being read.
+    pub(crate) fn path(&self) -> &Path {
+        &self.path
+    }
+
     /// The header names, in file order.
-    pub(crate) fn names(&self) -> &[&'t str] {
+    pub(crate) fn names(&self) -> &[String] {
         &self.header
     }
 
     /// The 0-based index of column `name`, if the header has it.
     pub(crate) fn find(&self, name: &str) -> Option<usize> {
-        self.header.iter().position(|n| *n == name)
+        self.header.iter().position(|n| n == name)
     }
 
     /// The 0-based indices of all of `names`; an error names the first one missing.
@@ -110,35 +193,43 @@ impl<'t> CsvText<'t> {
 
     /// An error located at the header line.
     pub(crate) fn header_error(&self, kind: ErrorKind) -> RecordingError {
-        RecordingError::new(self.path, kind).at_line(self.header_line)
+        RecordingError::new(&self.path, kind).at_line(self.header_line)
     }
 
     /// The next data line, skipping comments and blank lines; `None` at the end.
-    pub(crate) fn next_row(&mut self) -> Option<Result<Row<'_, 't>, RecordingError>> {
-        let (index, line) = self.lines.by_ref().find(|(_, line)| !is_skipped(line))?;
-        split_fields(line, &mut self.fields);
-        let row = Row {
-            path: self.path,
-            header: &self.header,
-            line: index + 1,
-            fields: &self.fields,
-        };
-        if row.fields.len() == row.header.len() {
-            Some(Ok(row))
-        } else {
-            let kind = ErrorKind::ColumnCount {
-                expected: row.header.len(),
-                found: row.fields.len(),
-            };
-            Some(Err(RecordingError::new(self.path, kind).at_line(row.line)))
+    pub(crate) fn next_row(&mut self) -> Option<Result<Row<'_>, RecordingError>> {
+        match self.next_line() {
+            Ok(true) => {}
+            Ok(false) => return None,
+            Err(e) => return Some(Err(e)),
         }
+        split_fields(&self.text, &mut self.fields);
+        if self.fields.len() != self.header.len() {
+            let kind = ErrorKind::ColumnCount {
+                expected: self.header.len(),
+                found: self.fields.len(),
+            };
+            return Some(Err(RecordingError::new(&self.path, kind).at_line(self.line)));
+        }
+        Some(Ok(Row {
+            path: &self.path,
+            header: &self.header,
+            line: self.line,
+            text: &self.text,
+            fields: &self.fields,
+        }))
     }
 }
 
-impl Row<'_, '_> {
+impl Row<'_> {
+    /// Its 1-based line number in the file.
+    pub(crate) fn line(&self) -> usize {
+        self.line
+    }
+
     /// An error located at this line and the 0-based column `col`.
     pub(crate) fn error(&self, col: usize, kind: ErrorKind) -> RecordingError {
-        let name = self.header.get(col).copied().unwrap_or_default();
+        let name = self.header.get(col).map_or("", String::as_str);
         RecordingError::new(self.path, kind)
             .at_line(self.line)
             .at_column(col, name)
@@ -146,7 +237,11 @@ impl Row<'_, '_> {
 
     /// The finite number in 0-based column `col`.
     pub(crate) fn number(&self, col: usize) -> Result<f64, RecordingError> {
-        let text = self.fields.get(col).copied().unwrap_or_default();
+        let text = self
+            .fields
+            .get(col)
+            .and_then(|r| self.text.get(r.clone()))
+            .unwrap_or_default();
         let value: f64 = text
             .parse()
             .map_err(|_| self.error(col, ErrorKind::NotANumber { text: quoted(text) }))?;

@@ -11,7 +11,9 @@
 //!
 //! [`read_recording`] checks every file against the contract and reports any
 //! departure as a [`RecordingError`] naming file, line, column or key; it
-//! never panics, guesses or drops data. [`write_recording`] writes files that
+//! never panics, guesses or drops data. [`open_recording`] reads the same files
+//! one sample at a time with the same checks, in memory that does not grow with
+//! their length (the CSV is parsed by hand, line by line: `csv.rs` says why). [`write_recording`] writes files that
 //! read back bit-exactly. All quantities are `f64` in SI units (angles in
 //! rad, except latitude and longitude in degrees).
 
@@ -26,7 +28,10 @@ mod text;
 mod writer;
 
 pub use error::{Column, ErrorKind, RecordingError};
-pub use reader::read_recording;
+pub use reader::{
+    open_recording, read_recording, MasterReader, RecordingStream, SlaveReader, TruthReader,
+    TruthRow,
+};
 pub use rules::QUATERNION_NORM_TOLERANCE;
 pub use writer::write_recording;
 

@@ -6,10 +6,9 @@
 
 use super::units::{of_effect_unit, sig3, Unit, ACCEL_BIAS, ANGLE, ARW, GYRO_BIAS, VRW};
 use crate::calib::config::CalibConfig;
-use crate::calib::residuals::channel_residuals;
 use crate::calib::run::CalibResult;
 use crate::calib::score::Score;
-use crate::recording::Recording;
+use crate::recording::RecordingMeta;
 use crate::verdict::run::nis_band;
 use crate::verdict::{Level, Severity, Verdict};
 use std::fmt::Write;
@@ -18,8 +17,10 @@ use std::fmt::Write;
 pub struct ReportInput<'a> {
     /// The recording as given on the command line.
     pub label: &'a str,
-    /// The recording.
-    pub rec: &'a Recording,
+    /// The recording's description.
+    pub meta: &'a RecordingMeta,
+    /// Master messages in the recording.
+    pub master_total: usize,
     /// Its duration (s).
     pub duration_s: f64,
     /// The configuration run.
@@ -230,7 +231,7 @@ fn estimates_section(s: &mut String, r: &ReportInput<'_>, res: &CalibResult) {
 
 fn residuals_section(s: &mut String, res: &CalibResult) {
     let _ = writeln!(s, "## Innovations per channel\n");
-    let residuals = channel_residuals(&res.innovations);
+    let residuals = res.summary.residuals();
     if residuals.is_empty() {
         let _ = writeln!(
             s,
@@ -271,17 +272,16 @@ fn residuals_section(s: &mut String, res: &CalibResult) {
             }
         );
     }
-    let gated = res.innovations.iter().filter(|i| !i.accepted).count();
     let _ = writeln!(
         s,
-        "\n{gated} of {} scalar innovations gated.\n",
-        res.innovations.len()
+        "\n{} of {} scalar innovations gated.\n",
+        res.summary.gated, res.summary.total
     );
 }
 
 fn model_section(s: &mut String, r: &ReportInput<'_>, res: &CalibResult) {
     let c = r.cfg;
-    let l = r.rec.meta.lever_arm_m;
+    let l = r.meta.lever_arm_m;
     let _ = writeln!(s, "## Model\n");
     let _ = writeln!(
         s,
@@ -360,7 +360,7 @@ fn model_section(s: &mut String, r: &ReportInput<'_>, res: &CalibResult) {
         "- inputs: {} slave samples, {} of {} master messages matched ({} stale, {} out of order, {} dropped by the queue), {} filter resets\n",
         k.imu_samples,
         k.master_matched,
-        r.rec.master.len(),
+        r.master_total,
         k.master_stale,
         k.master_out_of_order,
         k.master_dropped,

@@ -4,5 +4,6 @@
 
 pub mod markdown;
 pub mod plots;
+pub mod stream;
 pub mod summary;
 pub mod units;

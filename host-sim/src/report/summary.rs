@@ -19,8 +19,8 @@ pub fn summary_json(
     score: Option<&Score>,
 ) -> Value {
     let last = res.last();
-    let gated: usize = res.innovations.iter().filter(|i| !i.accepted).count();
-    let accepted = res.innovations.len() - gated;
+    let gated = res.summary.gated;
+    let accepted = res.summary.total - gated;
     let matching: Vec<&str> = crate::calib::run::CHANNELS
         .iter()
         .zip([
@@ -57,7 +57,7 @@ pub fn summary_json(
             "nis_band": nis_band(accepted),
             "gated": gated,
         },
-        "residuals": crate::calib::residuals::channel_residuals(&res.innovations),
+        "residuals": res.summary.residuals(),
         "inputs": {
             "imu_samples": res.counters.imu_samples,
             "master_matched": res.counters.master_matched,
@@ -119,30 +119,53 @@ fn nis_band(n: usize) -> [f64; 2] {
     ]
 }
 
-/// Writes `estimates.csv`: one row per filter update.
-pub fn write_estimates_csv(path: &Path, rows: &[EstimateRow]) -> std::io::Result<()> {
-    let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
-    let mut header = vec!["t".to_string()];
-    for (p, _) in FIELDS {
-        for a in ["x", "y", "z"] {
-            header.push(format!("{p}{a}"));
+/// `estimates.csv` being written, one row per filter update as the run goes.
+pub struct EstimatesCsv {
+    f: std::io::BufWriter<std::fs::File>,
+}
+
+impl EstimatesCsv {
+    /// Creates the file and writes its header.
+    pub fn create(path: &Path) -> std::io::Result<Self> {
+        let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+        let mut header = vec!["t".to_string()];
+        for (p, _) in FIELDS {
+            for a in ["x", "y", "z"] {
+                header.push(format!("{p}{a}"));
+            }
+            for a in ["x", "y", "z"] {
+                header.push(format!("{p}{a}_sigma"));
+            }
         }
-        for a in ["x", "y", "z"] {
-            header.push(format!("{p}{a}_sigma"));
-        }
+        writeln!(f, "{}", header.join(","))?;
+        Ok(Self { f })
     }
-    writeln!(f, "{}", header.join(","))?;
-    for r in rows {
-        write!(f, "{}", r.t)?;
+
+    /// Writes one row.
+    pub fn row(&mut self, r: &EstimateRow) -> std::io::Result<()> {
+        write!(self.f, "{}", r.t)?;
         for (_, get) in FIELDS {
             let (v, s) = get(r);
             for x in v.iter().chain(s.iter()) {
-                write!(f, ",{x:e}")?;
+                write!(self.f, ",{x:e}")?;
             }
         }
-        writeln!(f)?;
+        writeln!(self.f)
     }
-    f.flush()
+
+    /// Flushes the file.
+    pub fn finish(mut self) -> std::io::Result<()> {
+        self.f.flush()
+    }
+}
+
+/// Writes `estimates.csv` from rows held in memory.
+pub fn write_estimates_csv(path: &Path, rows: &[EstimateRow]) -> std::io::Result<()> {
+    let mut csv = EstimatesCsv::create(path)?;
+    for r in rows {
+        csv.row(r)?;
+    }
+    csv.finish()
 }
 
 type Getter = fn(&EstimateRow) -> ([f64; 3], [f64; 3]);

@@ -64,6 +64,25 @@ pub fn of_effect_unit(si: &'static str) -> Unit {
     }
 }
 
+/// An SI value `v` shown in unit `u` with 3 significant digits and the unit's name.
+pub fn show(v: f64, u: Unit) -> String {
+    format!("{} {}", sig3(v * u.scale), u.name)
+}
+
+/// SI values shown in unit `u` with 3 significant digits, comma separated (no unit name).
+pub fn list(v: &[f64], u: Unit) -> String {
+    v.iter()
+        .map(|x| sig3(x * u.scale))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Angular rates of motion (not biases): rad/s → °/s.
+pub const RATE: Unit = Unit {
+    name: "°/s",
+    scale: 180.0 / std::f64::consts::PI,
+};
+
 /// `v` with 3 significant digits, plain for ordinary magnitudes.
 pub fn sig3(v: f64) -> String {
     crate::verdict::g3(v)

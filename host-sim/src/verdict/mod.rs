@@ -18,7 +18,7 @@ use crate::calib::config::CalibConfig;
 use crate::calib::run::CalibResult;
 use crate::learn::increments::increment_noise;
 use crate::learn::Learned;
-use crate::recording::Recording;
+use input::Scan;
 use serde::Serialize;
 use serde_json::{Map, Value};
 use std::path::Path;
@@ -202,23 +202,23 @@ impl Verdict {
     }
 }
 
-/// The verdict of a calibration of the recording in `rec_dir`: the recording's
-/// plausibility and units, where the model came from (and, for a model given rather
-/// than learned, its IMU noise against the increments'), and what the run did.
+/// The verdict of a calibration of a recording seen by `scan`: the recording's
+/// plausibility and, on its first [`input::PREFIX_SAMPLES`] samples, its units and
+/// clocks; where the model came from (and, for a model given rather than learned, its
+/// IMU noise against the increments'); what the run did.
 pub fn of_calibration(
-    rec_dir: &Path,
-    rec: &Recording,
+    scan: &mut Scan,
     config_file: Option<&Path>,
     learned: Option<&Learned>,
     cfg: &CalibConfig,
     res: &CalibResult,
 ) -> Verdict {
     let mut v = Verdict::default();
-    v.extend(input::check(rec_dir, rec));
-    v.extend(motion::check(rec));
+    v.extend(scan.findings());
+    v.extend(motion::check(scan.prefix()));
     v.extend(model::origin(config_file, learned));
     if learned.is_none() {
-        match increment_noise(rec, 200_000) {
+        match increment_noise(scan.prefix(), input::PREFIX_SAMPLES) {
             Ok(inc) => v.extend(model::noise_fit(cfg, &inc)),
             Err(e) => v.extend([Finding::new(
                 Severity::Note,
@@ -227,7 +227,7 @@ pub fn of_calibration(
             )]),
         }
     }
-    v.extend(run::check(rec, cfg, res));
+    v.extend(run::check(scan, cfg, res));
     v
 }
 

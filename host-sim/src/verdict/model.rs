@@ -7,6 +7,7 @@ use super::{g3, Finding, Severity};
 use crate::calib::config::CalibConfig;
 use crate::learn::increments::IncrementNoise;
 use crate::learn::Learned;
+use crate::report::units::{show, ARW, VRW};
 use serde_json::json;
 use std::path::Path;
 
@@ -162,13 +163,20 @@ fn defaults_findings(path: &Path, d: &[(String, toml::Value)]) -> Vec<Finding> {
 /// far above it is a mismatch, one below it is not.
 pub fn noise_fit(cfg: &CalibConfig, inc: &IncrementNoise) -> Vec<Finding> {
     let mut out = Vec::new();
-    for (key, declared, measured, two_sided) in [
-        ("gyro_arw_rad_rs", cfg.gyro_arw_rad_rs, inc.gyro_arw(), true),
+    for (key, declared, measured, two_sided, unit) in [
+        (
+            "gyro_arw_rad_rs",
+            cfg.gyro_arw_rad_rs,
+            inc.gyro_arw(),
+            true,
+            ARW,
+        ),
         (
             "accel_vrw_mps_rs",
             cfg.accel_vrw_mps_rs,
             inc.accel_floor(),
             false,
+            VRW,
         ),
     ] {
         let ratio = declared / measured;
@@ -182,8 +190,8 @@ pub fn noise_fit(cfg: &CalibConfig, inc: &IncrementNoise) -> Vec<Finding> {
                 "config_noise_mismatch",
                 format!(
                     "`{key}` declares {} but the slave's increments show a white floor of {} ({}-{} Hz): {} times {}",
-                    g3(declared),
-                    g3(measured),
+                    show(declared, unit),
+                    show(measured, unit),
                     g3(inc.band_from_hz),
                     g3(inc.band_to_hz),
                     g3(if ratio > 1.0 { ratio } else { 1.0 / ratio }),

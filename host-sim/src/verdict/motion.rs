@@ -130,23 +130,27 @@ fn reading(scale: f64, rate_hz: f64) -> String {
     }
 }
 
-fn scale_finding(
+/// A FAIL when the median of the per-window `ratios` (at least `MIN_WINDOWS` of them)
+/// is outside `SCALE_RANGE`; `what` says it from the median and the window count.
+fn scale_check(
+    ratios: Vec<f64>,
     code: &'static str,
-    what: String,
-    at: &str,
-    scale: f64,
-    windows: usize,
-) -> Finding {
-    Finding::new(Severity::Fail, code, what)
-        .at(at.to_string())
-        .num("scale", scale)
-        .num("windows", windows as f64)
-        .num("range_lo", SCALE_RANGE[0])
-        .num("range_hi", SCALE_RANGE[1])
-}
-
-fn outside(scale: f64) -> bool {
-    !(SCALE_RANGE[0]..=SCALE_RANGE[1]).contains(&scale)
+    file: &str,
+    what: impl FnOnce(f64, usize) -> String,
+) -> Option<Finding> {
+    let n = ratios.len();
+    if n < MIN_WINDOWS {
+        return None;
+    }
+    let scale = median(ratios);
+    (!(SCALE_RANGE[0]..=SCALE_RANGE[1]).contains(&scale)).then(|| {
+        Finding::new(Severity::Fail, code, what(scale, n))
+            .at(file.to_string())
+            .num("scale", scale)
+            .num("windows", n as f64)
+            .num("range_lo", SCALE_RANGE[0])
+            .num("range_hi", SCALE_RANGE[1])
+    })
 }
 
 /// The slave's specific force over 1 s windows: its median magnitude is gravity's
@@ -155,24 +159,13 @@ fn accel_scale(rec: &Recording, slave: &Slave) -> Option<Finding> {
     let (a, b) = (slave.t[0], *slave.t.last()?);
     let f: Vec<f64> = windows(a, b)
         .filter_map(|(x, y)| slave.sum(x, y))
-        .map(|(_, dv, dt)| dv.norm() / dt)
+        .map(|(_, dv, dt)| dv.norm() / dt / G0)
         .collect();
-    if f.len() < MIN_WINDOWS {
-        return None;
-    }
-    let n = f.len();
-    let scale = median(f) / G0;
-    outside(scale).then(|| {
-        scale_finding(
-            "slave_accel_scale",
-            format!(
-                "the slave's specific force is {} g in the median of {n} one-second windows, where gravity alone gives 1 g: {}",
-                g3(scale),
-                reading(scale, rec.meta.slave_rate_hz)
-            ),
-            SLAVE_FILE,
-            scale,
-            n,
+    scale_check(f, "slave_accel_scale", SLAVE_FILE, |scale, n| {
+        format!(
+            "the slave's specific force is {} g in the median of {n} one-second windows, where gravity alone gives 1 g: {}",
+            g3(scale),
+            reading(scale, rec.meta.slave_rate_hz)
         )
     })
 }
@@ -191,22 +184,12 @@ fn gyro_scale(rec: &Recording, slave: &Slave) -> Option<Finding> {
             (m >= MIN_ROTATION_RAD).then(|| dth.norm() / m)
         })
         .collect();
-    if r.len() < MIN_WINDOWS {
-        return None;
-    }
-    let n = r.len();
-    let scale = median(r);
-    outside(scale).then(|| {
-        scale_finding(
-            "slave_gyro_scale",
-            format!(
-                "the slave's angle increments add up to {} times the master's rotation (median of {n} one-second windows where the master turned ≥ {MIN_ROTATION_RAD} rad): {}",
-                g3(scale),
-                reading(scale, rec.meta.slave_rate_hz)
-            ),
-            SLAVE_FILE,
-            scale,
-            n,
+    scale_check(r, "slave_gyro_scale", SLAVE_FILE, |scale, n| {
+        format!(
+            "the slave's angle increments add up to {} times the master's rotation (median of {n} one-second windows where the master turned ≥ {}°): {}",
+            g3(scale),
+            g3(MIN_ROTATION_RAD.to_degrees()),
+            reading(scale, rec.meta.slave_rate_hz)
         )
     })
 }
@@ -229,22 +212,11 @@ fn master_rate_scale(rec: &Recording) -> Option<Finding> {
             (m >= MIN_ROTATION_RAD).then(|| integral.norm() / m)
         })
         .collect();
-    if r.len() < MIN_WINDOWS {
-        return None;
-    }
-    let n = r.len();
-    let scale = median(r);
-    outside(scale).then(|| {
-        scale_finding(
-            "master_rate_scale",
-            format!(
-                "the master's rate `wx,wy,wz` integrates to {} times the rotation of its own attitude (median of {n} one-second windows): {} (recording-v1 wants rad/s)",
-                g3(scale),
-                reading(scale, rec.meta.master_rate_hz)
-            ),
-            MASTER_FILE,
-            scale,
-            n,
+    scale_check(r, "master_rate_scale", MASTER_FILE, |scale, n| {
+        format!(
+            "the master's rate `wx,wy,wz` integrates to {} times the rotation of its own attitude (median of {n} one-second windows): {} (recording-v1 wants rad/s)",
+            g3(scale),
+            reading(scale, rec.meta.master_rate_hz)
         )
     })
 }

@@ -4,11 +4,12 @@
 //! the gated fraction, σ that did not fall from its prior, estimates beyond their
 //! prior, covariance health. Thresholds and their reasons: `docs/verdict.md`.
 
+use super::input::Scan;
 use super::{g3, Finding, Severity};
 use crate::calib::config::CalibConfig;
-use crate::calib::residuals::{channel_residuals, ChannelResidual};
+use crate::calib::residuals::ChannelResidual;
 use crate::calib::run::CalibResult;
-use crate::recording::Recording;
+use crate::report::units::{show, ACCEL_BIAS, ANGLE, GYRO_BIAS};
 use flexcal_core::engine::PENDING_DEPTH;
 use flexcal_core::stats::chi2_quantile;
 use serde_json::json;
@@ -44,21 +45,21 @@ pub const PRIOR_SIGMAS: f64 = 3.0;
 const STATES: [&str; 3] = ["gyro bias", "accelerometer bias", "misalignment"];
 const AXES: [&str; 3] = ["x", "y", "z"];
 
-/// Every run finding of a calibration of `rec` with `cfg`.
-pub fn check(rec: &Recording, cfg: &CalibConfig, res: &CalibResult) -> Vec<Finding> {
+/// Every run finding of a calibration of the recording `scan` saw, with `cfg`.
+pub fn check(scan: &Scan, cfg: &CalibConfig, res: &CalibResult) -> Vec<Finding> {
     let mut out = Vec::new();
-    out.extend(messages(rec, res));
+    out.extend(messages(scan, res));
     if res.rows.is_empty() {
         return out;
     }
-    if res.innovations.is_empty() {
+    if res.summary.total == 0 {
         out.push(Finding::new(
             Severity::Note,
             "innovations_unavailable",
             "the runner sent no innovations (the board sends estimates only): NIS, whiteness and gating not checked",
         ));
     } else {
-        let residuals = channel_residuals(&res.innovations);
+        let residuals = res.summary.residuals();
         out.extend(nis(&residuals));
         out.extend(whiteness(&residuals));
         out.extend(gated(cfg, res));
@@ -69,11 +70,10 @@ pub fn check(rec: &Recording, cfg: &CalibConfig, res: &CalibResult) -> Vec<Findi
 }
 
 /// Master messages: matched, refused, dropped, never reached; resets.
-fn messages(rec: &Recording, res: &CalibResult) -> Vec<Finding> {
+fn messages(scan: &Scan, res: &CalibResult) -> Vec<Finding> {
     let c = &res.counters;
-    let total = rec.master.len();
-    let last_slave = rec.imu.last().map_or(rec.imu_t0, |s| s.t);
-    let never = rec.master.iter().filter(|m| m.t > last_slave).count();
+    let total = scan.master_total();
+    let never = scan.master_after_slave();
     let matched = c.master_matched as usize;
     let frac = matched as f64 / total.max(1) as f64;
     let counts = |f: Finding| {
@@ -258,8 +258,7 @@ fn whiteness(residuals: &[ChannelResidual]) -> Option<Finding> {
 }
 
 fn gated(cfg: &CalibConfig, res: &CalibResult) -> Option<Finding> {
-    let n = res.innovations.len();
-    let g = res.innovations.iter().filter(|i| !i.accepted).count();
+    let (n, g) = (res.summary.total, res.summary.gated);
     let frac = g as f64 / n.max(1) as f64;
     let sev = if frac > GATED_FAIL {
         Severity::Fail
@@ -268,11 +267,7 @@ fn gated(cfg: &CalibConfig, res: &CalibResult) -> Option<Finding> {
     } else {
         return None;
     };
-    let first = res
-        .innovations
-        .iter()
-        .find(|i| !i.accepted)
-        .map_or(f64::NAN, |i| i.t);
+    let first = res.summary.first_gated_t.unwrap_or(f64::NAN);
     Some(
         Finding::new(
             sev,
@@ -307,11 +302,13 @@ fn sigma_and_prior(cfg: &CalibConfig, res: &CalibResult) -> Vec<Finding> {
         last.accel_bias_sigma,
         last.misalignment_sigma,
     ];
+    let units = [GYRO_BIAS, ACCEL_BIAS, ANGLE];
     let mut out = Vec::new();
     for q in 0..3 {
         for a in 0..3 {
             let (x, s, s0) = (values[q][a], sigmas[q][a], prior[q]);
             let what = format!("{} {}", STATES[q], AXES[a]);
+            let u = units[q];
             if observed[q] && s > SIGMA_FALL * s0 {
                 out.push(
                     Finding::new(
@@ -319,9 +316,9 @@ fn sigma_and_prior(cfg: &CalibConfig, res: &CalibResult) -> Vec<Finding> {
                         "sigma_not_falling",
                         format!(
                             "{what}: σ {} is still {:.0}% of its prior {}, though the matching ({}) observes it: the motion did not excite it, or the run was too short",
-                            g3(s),
+                            show(s, u),
                             100.0 * s / s0,
-                            g3(s0),
+                            show(s0, u),
                             cfg.matching.join(", ")
                         ),
                     )
@@ -337,9 +334,9 @@ fn sigma_and_prior(cfg: &CalibConfig, res: &CalibResult) -> Vec<Finding> {
                         "estimate_beyond_prior",
                         format!(
                             "{what}: estimate {} is {} prior σ from 0 (prior σ {}): the configuration's sensor grade does not fit this sensor",
-                            g3(x),
+                            show(x, u),
                             g3(x.abs() / s0),
-                            g3(s0)
+                            show(s0, u)
                         ),
                     )
                     .at(what)
