@@ -20,6 +20,7 @@ use crate::recording::Recording;
 use increments::IncrementNoise;
 use params::{ModelParams, Param};
 use search::{LearnedValue, Search};
+use truth::IDENTIFIABLE_RELATIVE_SIGMA;
 
 /// The size the search of a master's smooth attitude error starts its ladder from
 /// (rad): the ladder tries 0.001–1× this (0.2″ to 3.4′).
@@ -210,7 +211,11 @@ pub fn learn(
         if sweep == 0 {
             continue;
         }
+        // The velocity random walk hides under the master's velocity noise: kept only
+        // where the likelihood resolves it, else the start (bounded by the increments).
+        let vrw_start = s.model.get(Param::AccelVrw);
         s.line(&[Param::AccelVrw], h);
+        s.keep_only_if_resolved(Param::AccelVrw, vrw_start, IDENTIFIABLE_RELATIVE_SIGMA);
         s.vanishing(
             Param::GyroBiasRw,
             start.initial_gyro_bias_radps * per_window,

@@ -372,6 +372,31 @@ impl<'a> Search<'a> {
         }
     }
 
+    /// Moves `p` back to `value` unless the likelihood resolved where it went (its σ known
+    /// and at most `max_relative_sigma` of the value). Over a flat likelihood the search
+    /// wanders to a bound, and a value no evidence supports must not replace the start:
+    /// a velocity random walk walked down to its floor made a blind run's tilt and
+    /// accelerometer bias 10× overconfident (`docs/model-learning.md`).
+    pub fn keep_only_if_resolved(&mut self, p: Param, value: f64, max_relative_sigma: f64) {
+        let now = self.model.get(p);
+        let resolved = self
+            .values
+            .iter()
+            .find(|v| v.param == p)
+            .and_then(|v| v.sigma)
+            .is_some_and(|sigma| sigma <= max_relative_sigma * now);
+        if resolved || now == value {
+            return;
+        }
+        let model = self.trial(&[p], |_, _| value);
+        let before = self.current.total;
+        if let Some(l) = self.eval_all(std::slice::from_ref(&model))[0] {
+            self.model = model;
+            self.current = l;
+            self.record(p, value, None, before - l.total);
+        }
+    }
+
     /// A process noise that may be absent: the ladder, then (if it is not zero) a line.
     pub fn vanishing(&mut self, p: Param, scale: f64, h: f64) {
         self.ladder(p, scale);
