@@ -21,7 +21,7 @@
 
 use crate::recording::Recording;
 use flexcal_core::rotation::log_so3;
-use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, Vector3};
 
 /// Length of one block (s): long enough for a ship's rotation to dominate the slave's
 /// sample-boundary share, short enough that the rotation vector adds up linearly.
@@ -63,15 +63,11 @@ pub fn coarse_mounting(rec: &Recording, window_s: f64) -> Result<CoarseMounting,
     let mut pairs = Vec::new();
     for w in masters.windows(2) {
         let [a, b] = [w[0], w[1]];
-        let phi_s = slave_rotation(rec, a.t, b.t);
-        let Some(phi_s) = phi_s else { continue };
-        let c = |q: &[f64; 4]| {
-            UnitQuaternion::new_normalize(Quaternion::new(q[0], q[1], q[2], q[3]))
-                .to_rotation_matrix()
-                .into_inner()
-        };
-        let phi_m = log_so3(&(c(&a.q_bm_n).transpose() * c(&b.q_bm_n)));
-        pairs.push((phi_m, phi_s));
+        if let (Some(phi_m), Some(phi_s)) =
+            (rec.master_rotation(a.t, b.t), slave_rotation(rec, a.t, b.t))
+        {
+            pairs.push((phi_m, phi_s));
+        }
     }
     if pairs.len() < 3 {
         return Err(format!(

@@ -414,9 +414,7 @@ pub fn run(a: &Args) -> Result<(), String> {
     if let Some(l) = learned {
         write_model_toml(&a.out, l)?;
     }
-    let text = serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())?;
-    let path = a.out.join("summary.json");
-    std::fs::write(&path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
+    super::common::write_json(&a.out.join("summary.json"), &doc)?;
     let label = a.rec_dir.display().to_string();
     let plot_files = plots::write_estimate_plots(&a.out, &label, &res.rows, c.truth.as_ref())
         .map_err(|e| e.to_string())?;

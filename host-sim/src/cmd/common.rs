@@ -1,9 +1,16 @@
-//! Arguments several subcommands share, and what they do to a scenario or a
-//! calibration configuration.
+//! Arguments several subcommands share, what they do to a scenario or a calibration
+//! configuration, and how the commands write their JSON.
 
 use crate::calib::config::CalibConfig;
 use crate::sim::blind::{self, BlindEffect};
 use crate::sim::Scenario;
+use std::path::Path;
+
+/// Writes `doc` to `path` as pretty JSON with a final newline; an error names the file.
+pub fn write_json(path: &Path, doc: &impl serde::Serialize) -> Result<(), String> {
+    let text = serde_json::to_string_pretty(doc).map_err(|e| e.to_string())?;
+    std::fs::write(path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))
+}
 
 /// Which scenario to simulate, for how long, with which seed.
 #[derive(clap::Args)]

@@ -101,9 +101,7 @@ pub fn run(a: &Args) -> Result<(), String> {
     }
     let mut doc = report::diagnosis_json(&d, &label, &rec, &command);
     verdict.insert_into(&mut doc);
-    let text = serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())?;
-    let path = a.out.join("diagnosis.json");
-    std::fs::write(&path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
+    super::common::write_json(&a.out.join("diagnosis.json"), &doc)?;
     let md = report::report_md(&d, &label, &rec, &command);
     let path = a.out.join("report.md");
     std::fs::write(&path, md).map_err(|e| format!("{}: {e}", path.display()))?;

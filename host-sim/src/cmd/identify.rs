@@ -137,9 +137,7 @@ fn window(len: usize) -> std::ops::Range<usize> {
 
 fn write_outputs(a: &Args, json: &Value, fig: &crate::plot::Figure) -> Result<(), String> {
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
-    let path = a.out.join("identify.json");
-    let text = serde_json::to_string_pretty(json).map_err(|e| e.to_string())?;
-    std::fs::write(&path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
+    super::common::write_json(&a.out.join("identify.json"), json)?;
     let svg = a.out.join("prediction.svg");
     fig.write(&svg)
         .map_err(|e| format!("{}: {e}", svg.display()))?;

@@ -252,12 +252,7 @@ pub fn run(a: &Args) -> Result<(), String> {
     let verdict = ensemble_verdict(&runs, &agg);
     let mut doc = doc;
     verdict.insert_into(&mut doc);
-    let path = a.out.join("montecarlo.json");
-    std::fs::write(
-        &path,
-        serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())? + "\n",
-    )
-    .map_err(|e| format!("{}: {e}", path.display()))?;
+    super::common::write_json(&a.out.join("montecarlo.json"), &doc)?;
     let x: Vec<f64> = runs.iter().map(|r| r.seed as f64).collect();
     let single = crate::verdict::ensemble::single_run_band();
     let fig = Figure {

@@ -183,12 +183,7 @@ pub fn run(a: &Args) -> Result<(), String> {
     let verdict = ensemble_verdict(&learned, &agg_l);
     let mut doc = doc;
     verdict.insert_into(&mut doc);
-    let path = a.out.join("montecarlo.json");
-    std::fs::write(
-        &path,
-        serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())? + "\n",
-    )
-    .map_err(|e| format!("{}: {e}", path.display()))?;
+    super::common::write_json(&a.out.join("montecarlo.json"), &doc)?;
     ratio_figure("blind, learned model", &agg_l, runs.len())
         .write(&a.out.join("rms_over_sigma_learned.svg"))
         .map_err(|e| e.to_string())?;

@@ -786,9 +786,7 @@ pub fn write_outputs(a: &Args, r: &Replayed) -> Result<(), String> {
     if let Some(l) = &r.learned {
         crate::cmd::calibrate::write_model_toml(&a.out, l)?;
     }
-    let text = serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())?;
-    let path = a.out.join("summary.json");
-    std::fs::write(&path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
+    super::common::write_json(&a.out.join("summary.json"), &doc)?;
     summary::write_estimates_csv(&a.out.join("estimates.csv"), &res.rows)
         .map_err(|e| e.to_string())?;
     let label = a.rec_dir.display().to_string();

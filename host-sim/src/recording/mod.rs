@@ -177,4 +177,25 @@ impl Recording {
     pub fn master_has_rate(&self) -> bool {
         !self.master.is_empty() && self.master.iter().all(|m| m.omega_ib_bm_radps.is_some())
     }
+
+    /// Index of the master's message at or just after `t` (s).
+    pub fn master_index(&self, t: f64) -> Option<usize> {
+        let k = self.master.partition_point(|m| m.t < t);
+        (k < self.master.len()).then_some(k)
+    }
+
+    /// The master's rotation over `[a, b]` (s) as a rotation vector (rad) in its body
+    /// frame at `a`, from its attitudes at the messages at or just after `a` and `b`.
+    pub fn master_rotation(&self, a: f64, b: f64) -> Option<nalgebra::Vector3<f64>> {
+        let (i, j) = (self.master_index(a)?, self.master_index(b)?);
+        let q = |k: usize| {
+            let q = self.master.get(k)?.q_bm_n;
+            Some(nalgebra::UnitQuaternion::new_normalize(
+                nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]),
+            ))
+        };
+        (j > i)
+            .then(|| Some((q(i)?.inverse() * q(j)?).scaled_axis()))
+            .flatten()
+    }
 }

@@ -8,7 +8,7 @@
 use super::input::median;
 use super::{g3, Finding, Severity};
 use crate::recording::{Recording, MASTER_FILE, SLAVE_FILE};
-use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 
 /// Standard gravity (m/s²).
 const G0: f64 = 9.806_65;
@@ -87,24 +87,6 @@ impl Slave {
     }
 }
 
-fn quat(q: &[f64; 4]) -> UnitQuaternion<f64> {
-    UnitQuaternion::new_normalize(Quaternion::new(q[0], q[1], q[2], q[3]))
-}
-
-/// The master's message at or just after `t`.
-fn master_index(rec: &Recording, t: f64) -> Option<usize> {
-    let k = rec.master.partition_point(|m| m.t < t);
-    (k < rec.master.len()).then_some(k)
-}
-
-/// The master's rotation over `[a, b]` as a rotation vector in its body frame at `a`.
-fn master_rotation(rec: &Recording, a: f64, b: f64) -> Option<Vector3<f64>> {
-    let (i, j) = (master_index(rec, a)?, master_index(rec, b)?);
-    (j > i).then(|| {
-        (quat(&rec.master[i].q_bm_n).inverse() * quat(&rec.master[j].q_bm_n)).scaled_axis()
-    })
-}
-
 /// Windows of `WINDOW_S` over `[a, b]`.
 fn windows(a: f64, b: f64) -> impl Iterator<Item = (f64, f64)> {
     let n = ((b - a) / WINDOW_S).floor().max(0.0) as usize;
@@ -179,7 +161,7 @@ fn gyro_scale(rec: &Recording, slave: &Slave) -> Option<Finding> {
     );
     let r: Vec<f64> = windows(a, b)
         .filter_map(|(x, y)| {
-            let m = master_rotation(rec, x, y)?.norm();
+            let m = rec.master_rotation(x, y)?.norm();
             let (dth, _, _) = slave.sum(x, y)?;
             (m >= MIN_ROTATION_RAD).then(|| dth.norm() / m)
         })
@@ -202,8 +184,8 @@ fn master_rate_scale(rec: &Recording) -> Option<Finding> {
     let (a, b) = (rec.master.first()?.t, rec.master.last()?.t);
     let r: Vec<f64> = windows(a, b)
         .filter_map(|(x, y)| {
-            let (i, j) = (master_index(rec, x)?, master_index(rec, y)?);
-            let m = master_rotation(rec, x, y)?.norm();
+            let (i, j) = (rec.master_index(x)?, rec.master_index(y)?);
+            let m = rec.master_rotation(x, y)?.norm();
             let mut integral = Vector3::zeros();
             for k in i + 1..=j {
                 let w = rec.master[k].omega_ib_bm_radps?;
@@ -233,7 +215,7 @@ fn best_offset(rec: &Recording, slave: &Slave) -> Option<(f64, f64)> {
     let master: Vec<(f64, Vector3<f64>)> = (0..n)
         .filter_map(|k| {
             let x = a + k as f64 * h;
-            master_rotation(rec, x, x + h).map(|r| (x, r / h))
+            rec.master_rotation(x, x + h).map(|r| (x, r / h))
         })
         .collect();
     if master.len() < 20 {
