@@ -56,13 +56,20 @@ pub struct RunResult {
     pub nis: f64,
 }
 
-/// Aggregate of a Monte Carlo: per state RMS error and mean σ, and NEES statistics.
+/// Aggregate of a Monte Carlo: per state RMS error and mean σ, the RMS of the errors
+/// normalized by each run's own σ, and NEES statistics.
 #[derive(Clone, Debug)]
 pub struct Aggregate {
-    /// RMS error per state.
+    /// RMS error per state (the state's unit).
     pub rms: [f64; 9],
-    /// Mean σ per state.
+    /// Mean σ per state (the state's unit).
     pub mean_sigma: [f64; 9],
+    /// RMS over runs of each run's error over that run's σ: the consistency ratio ("RMS/σ").
+    /// Its square is χ²(runs)/runs for a consistent filter whatever each run's σ, which
+    /// `rms / mean_sigma` is only when every run has the same σ: a blind Monte Carlo's runs
+    /// differ in σ by orders of magnitude, and there the plain ratio is set by the few
+    /// runs with the largest σ.
+    pub normalized_rms: [f64; 9],
     /// Mean NEES over runs.
     pub nees_mean: f64,
     /// 95% band of the mean NEES: χ²(9R) quantiles / R.
@@ -125,18 +132,22 @@ pub fn aggregate(runs: &[RunResult]) -> Aggregate {
     let n = runs.len().max(1) as f64;
     let mut rms = [0.0; 9];
     let mut mean_sigma = [0.0; 9];
+    let mut normalized_rms = [0.0; 9];
     for r in runs {
         for i in 0..9 {
             rms[i] += r.error[i] * r.error[i] / n;
             mean_sigma[i] += r.sigma[i] / n;
+            normalized_rms[i] += (r.error[i] / r.sigma[i]).powi(2) / n;
         }
     }
     let rms = rms.map(f64::sqrt);
+    let normalized_rms = normalized_rms.map(f64::sqrt);
     let nees_mean = runs.iter().map(|r| r.nees).sum::<f64>() / n;
     let dof = 9.0 * n;
     Aggregate {
         rms,
         mean_sigma,
+        normalized_rms,
         nees_mean,
         nees_band: [chi2_quantile(0.025, dof) / n, chi2_quantile(0.975, dof) / n],
     }
@@ -147,7 +158,7 @@ pub const NAMES: [&str; 9] = [
     "bgx", "bgy", "bgz", "bax", "bay", "baz", "mux", "muy", "muz",
 ];
 
-/// RMS error over mean σ for each calibrated state as a bar chart, one labelled bar per
+/// RMS of the normalized error (each run's error over its own σ) for each calibrated state as a bar chart, one labelled bar per
 /// state in the order of `NAMES` (1: the filter's σ is right; dashed, the verdict's bound
 /// for `runs` runs, `verdict::ensemble::ratio_bound`). A bar is a band from 0 to its
 /// value over [i − 0.4, i + 0.4].
@@ -157,7 +168,7 @@ pub fn ratio_figure(scenario: &str, agg: &Aggregate, runs: usize) -> Figure {
         .iter()
         .enumerate()
         .map(|(i, name)| {
-            let r = agg.rms[i] / agg.mean_sigma[i];
+            let r = agg.normalized_rms[i];
             let x = i as f64;
             Band {
                 name: format!("{name} {r:.2}"),
@@ -174,10 +185,10 @@ pub fn ratio_figure(scenario: &str, agg: &Aggregate, runs: usize) -> Figure {
         y: vec![v; x.len()],
     };
     Figure {
-        title: format!("Monte Carlo `{scenario}` ({runs} runs): RMS error / mean σ per state"),
+        title: format!("Monte Carlo `{scenario}` ({runs} runs): RMS of error/σ per state"),
         x_label: format!("state 0..8: {}", NAMES.join(", ")),
         panels: vec![Panel {
-            title: "RMS final error over the filter's mean σ".into(),
+            title: "RMS of the final error over the filter's σ, run by run".into(),
             y_label: "ratio".into(),
             series: vec![],
             bands: bars,
@@ -190,12 +201,12 @@ pub fn ratio_figure(scenario: &str, agg: &Aggregate, runs: usize) -> Figure {
 }
 
 /// The verdict of a Monte Carlo (`crate::verdict::ensemble`): its runs' NEES against the
-/// band of the mean, and each state's RMS over mean σ.
+/// band of the mean, and each state's RMS of error over σ (`Aggregate::normalized_rms`).
 pub fn ensemble_verdict(runs: &[RunResult], agg: &Aggregate) -> crate::verdict::Verdict {
     let ratios: Vec<(&str, f64)> = NAMES
         .iter()
         .enumerate()
-        .map(|(i, n)| (*n, agg.rms[i] / agg.mean_sigma[i]))
+        .map(|(i, n)| (*n, agg.normalized_rms[i]))
         .collect();
     let seeds_nees: Vec<(u64, f64)> = runs.iter().map(|r| (r.seed, r.nees)).collect();
     crate::verdict::Verdict {
@@ -232,7 +243,7 @@ pub fn run(a: &Args) -> Result<(), String> {
     let agg = aggregate(&runs);
     std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
     let states: Vec<_> = (0..9)
-        .map(|i| json!({ "state": NAMES[i], "rms_error": agg.rms[i], "mean_sigma": agg.mean_sigma[i], "ratio": agg.rms[i] / agg.mean_sigma[i] }))
+        .map(|i| json!({ "state": NAMES[i], "rms_error": agg.rms[i], "mean_sigma": agg.mean_sigma[i], "ratio": agg.normalized_rms[i] }))
         .collect();
     let doc = json!({
         "tool_version": TOOL_VERSION,
@@ -297,7 +308,7 @@ pub fn run(a: &Args) -> Result<(), String> {
         sc.duration_s,
         a.precision
     );
-    println!("  state  unit    rms error   mean sigma   ratio");
+    println!("  state  unit    rms error   mean sigma   RMS of error/sigma");
     for (i, ((name, rms), sigma)) in NAMES.iter().zip(agg.rms).zip(agg.mean_sigma).enumerate() {
         use crate::report::units::{sig3, ACCEL_BIAS, ANGLE, GYRO_BIAS};
         let u = [GYRO_BIAS, ACCEL_BIAS, ANGLE][i / 3];
@@ -306,7 +317,7 @@ pub fn run(a: &Args) -> Result<(), String> {
             u.name,
             sig3(rms * u.scale),
             sig3(sigma * u.scale),
-            rms / sigma
+            agg.normalized_rms[i]
         );
     }
     println!(

@@ -114,7 +114,7 @@ pub fn nis_fractions(runs: &[BlindRun]) -> Vec<(String, f64, f64)> {
 
 fn arm_json(agg: &Aggregate, runs: &[RunResult], nis: Vec<(String, f64)>) -> Value {
     let states: Vec<_> = (0..9)
-        .map(|i| json!({ "state": NAMES[i], "rms_error": agg.rms[i], "mean_sigma": agg.mean_sigma[i], "ratio": agg.rms[i] / agg.mean_sigma[i] }))
+        .map(|i| json!({ "state": NAMES[i], "rms_error": agg.rms[i], "mean_sigma": agg.mean_sigma[i], "ratio": agg.normalized_rms[i] }))
         .collect();
     json!({
         "states": states,
@@ -205,8 +205,8 @@ pub fn run(a: &Args) -> Result<(), String> {
     for (i, name) in NAMES.iter().enumerate() {
         println!(
             "  {name:5}   {:8.3}        {:8.3}",
-            agg_l.rms[i] / agg_l.mean_sigma[i],
-            agg_d.rms[i] / agg_d.mean_sigma[i]
+            agg_l.normalized_rms[i],
+            agg_d.normalized_rms[i]
         );
     }
     for (name, agg) in [("learned", &agg_l), ("built-in default", &agg_d)] {

@@ -1,6 +1,6 @@
 //! The verdict of a Monte Carlo: is the filter's σ right over many seeds? The mean NEES
-//! of the 9 calibrated states against the χ² band of the mean, each state's RMS error
-//! over its mean σ against its χ² bound for the number of runs, and the single runs whose NEES is
+//! of the 9 calibrated states against the χ² band of the mean, each state's RMS of the
+//! error over σ (run by run) against its χ² bound for the number of runs, and the single runs whose NEES is
 //! outside the single-run χ²(9) band. Thresholds: `docs/verdict.md`.
 
 use super::{g3, Finding, Severity};
@@ -31,7 +31,7 @@ pub fn single_run_band() -> [f64; 2] {
 }
 
 /// Findings of a Monte Carlo: `nees` per run (with its seed), the band of the mean,
-/// and per state its name and RMS over mean σ.
+/// and per state its name and RMS of error over σ.
 pub fn check(
     seeds_nees: &[(u64, f64)],
     mean_band: [f64; 2],
@@ -79,7 +79,7 @@ pub fn check(
                 Severity::Warn,
                 "rms_over_sigma",
                 format!(
-                    "RMS error over mean σ above {} (what a consistent filter exceeds on one of the 9 states once in 100 Monte Carlos of {n} runs) on {}: {}",
+                    "RMS of error over σ above {} (what a consistent filter exceeds on one of the 9 states once in 100 Monte Carlos of {n} runs) on {}: {}",
                     g3(bound),
                     over.len(),
                     list.join(", ")
