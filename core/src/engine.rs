@@ -44,17 +44,45 @@ pub struct Matching {
     pub angular_rate: bool,
 }
 
-/// White measurement noise of the matching channels (standard deviations).
+/// White measurement noise of the matching channels (standard deviations), one per
+/// axis of each channel's residual: a channel's axes need not be alike (a master's
+/// vertical velocity is not its horizontal one; the flexure's share of the attitude and
+/// rate residuals differs per axis).
 #[derive(Clone, Copy, Debug)]
 pub struct MeasurementNoise<T> {
-    /// Velocity matching, per axis (m/s).
-    pub velocity_mps: T,
-    /// Attitude matching, per axis (rad).
-    pub attitude_rad: T,
-    /// The master's angular-rate noise, per axis (rad/s). The slave gyro's part of the
-    /// rate-matching noise is added per message from the process noise's angle random
-    /// walk and the interpolation weights (`AlignBuffer::rate_at`).
-    pub rate_radps: T,
+    /// Velocity matching (m/s, ENU axes).
+    pub velocity_mps: Vector3<T>,
+    /// Attitude matching (rad, slave body axes: the residual's).
+    pub attitude_rad: Vector3<T>,
+    /// The master's angular-rate noise (rad/s, slave body axes: the residual's). The
+    /// slave gyro's part of the rate-matching noise is added per message from the
+    /// process noise's angle random walk and the interpolation weights
+    /// (`AlignBuffer::rate_at`).
+    pub rate_radps: Vector3<T>,
+}
+
+impl<T: Real> MeasurementNoise<T> {
+    /// The same σ on every axis of each channel: velocity (m/s), attitude (rad), rate
+    /// (rad/s).
+    pub fn uniform(velocity_mps: T, attitude_rad: T, rate_radps: T) -> Self {
+        Self {
+            velocity_mps: Vector3::repeat(velocity_mps),
+            attitude_rad: Vector3::repeat(attitude_rad),
+            rate_radps: Vector3::repeat(rate_radps),
+        }
+    }
+}
+
+/// The root mean square over the three axes of a per-axis σ: exactly σ when the axes
+/// are alike (a sum of three squares, a division by three and a square root may
+/// round), so a uniform configuration computes what it did when the noise was one σ
+/// per channel.
+fn rms<T: Real>(sigma: &Vector3<T>) -> T {
+    if sigma.x == sigma.y && sigma.y == sigma.z {
+        sigma.x
+    } else {
+        (sigma.norm_squared() / T::of(3.0)).sqrt()
+    }
 }
 
 /// Initial standard deviations of the filter states.
@@ -449,7 +477,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
                     v += jg(r, k) * (at(&mu_var, k) + at(&th_var, k)) * jg(c, k);
                 }
                 if r == c {
-                    v += sq(cfg.measurement_noise.attitude_rad);
+                    let sigma = cfg.measurement_noise.attitude_rad.get(r).copied();
+                    v += sq(sigma.unwrap_or_else(T::zero));
                 }
                 mat::set(p, PSI + r, PSI + c, v);
             }
@@ -944,9 +973,10 @@ impl<T: Real, const S: usize> Engine<T, S> {
     }
 
     /// The master body's rate relative to the Earth (rad/s, master body), for the
-    /// lever-arm velocity, with the variance of its noise per axis (rad²/s²): from the
-    /// master's rate when given (its declared noise), else from the change of its
-    /// attitude since the previous message (√2 σ_att / Δt), else zero with no noise.
+    /// lever-arm velocity, with the variance of its noise, the mean over the axes
+    /// (rad²/s²): from the master's rate when given (its declared noise), else from the
+    /// change of its attitude since the previous message (√2 σ_att / Δt), else zero with
+    /// no noise.
     /// `here`: the Earth model at the master's position.
     fn master_rate_wrt_earth(
         &self,
@@ -957,14 +987,15 @@ impl<T: Real, const S: usize> Engine<T, S> {
         let noise = &self.cfg.measurement_noise;
         let w_ie_b = c_bm_n.transpose() * here.earth_rate_n();
         if let Some(w) = msg.w_ib_bm {
-            return (w - w_ie_b, noise.rate_radps * noise.rate_radps);
+            let sigma = rms(&noise.rate_radps);
+            return (w - w_ie_b, sigma * sigma);
         }
         match self.prev_master {
             Some(p) if msg.t > p.t && msg.t - p.t <= 2.5 * self.cfg.filter_period_s.max(1e-3) => {
                 let dt = T::of(msg.t - p.t);
                 let w_nb = quat_log(&(p.q_bm_n.inverse() * msg.q_bm_n)) / dt;
                 let w_en = here.transport_rate_n(&msg.v_n);
-                let sigma = noise.attitude_rad / dt;
+                let sigma = rms(&noise.attitude_rad) / dt;
                 (w_nb + c_bm_n.transpose() * w_en, T::of(2.0) * sigma * sigma)
             }
             _ => (Vector3::zeros(), T::zero()),
@@ -1104,16 +1135,19 @@ impl<T: Real, const S: usize> Engine<T, S> {
             augment(&mut rows, Channel::Velocity);
             // The master's velocity noise, plus the rate noise carried by the lever arm:
             // var(n_ω × r0) averaged over the axes is ⅔ |r0|² σ_ω².
-            let sigma_v = self.cfg.measurement_noise.velocity_mps;
-            let r = sigma_v * sigma_v + T::of(2.0 / 3.0) * r0.norm_squared() * w_eb_var;
+            let lever = T::of(2.0 / 3.0) * r0.norm_squared() * w_eb_var;
+            let r = self
+                .cfg
+                .measurement_noise
+                .velocity_mps
+                .map(|s| s * s + lever);
             report.velocity = Some(self.update3(&rows, &z, r, gate));
         }
         if m.attitude {
             let z = model::attitude_residual(&self.misalignment, &c_bm_n, &dcm(&slave.q_b_n));
             let mut rows = model::attitude_rows::<T, S>(&jr);
             augment(&mut rows, Channel::Attitude);
-            let r =
-                self.cfg.measurement_noise.attitude_rad * self.cfg.measurement_noise.attitude_rad;
+            let r = self.cfg.measurement_noise.attitude_rad.map(|s| s * s);
             report.attitude = Some(self.update3(&rows, &z, r, gate));
         }
         if m.angular_rate {
@@ -1127,8 +1161,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 augment(&mut rows, Channel::AngularRate);
                 let noise = &self.cfg.measurement_noise;
                 let arw = self.cfg.process_noise.gyro_arw;
-                let r =
-                    noise.rate_radps * noise.rate_radps + arw * arw * T::of(slave_rate.noise_gain);
+                let gyro = arw * arw * T::of(slave_rate.noise_gain);
+                let r = noise.rate_radps.map(|s| s * s + gyro);
                 report.angular_rate = Some(self.update3(&rows, &z, r, gate));
             }
         }
@@ -1145,7 +1179,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         &mut self,
         rows: &model::Rows<T, S>,
         z: &Vector3<T>,
-        r: T,
+        r: Vector3<T>,
         gate: T,
     ) -> [ScalarUpdate<T>; 3] {
         let mut out = [ScalarUpdate {
@@ -1155,8 +1189,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
             accepted: false,
         }; 3];
         let _phase = probe::enter(Phase::Update);
-        for (k, (row, slot)) in rows.iter().zip(out.iter_mut()).enumerate() {
-            *slot = self.kf.update_scalar(row, z[k], r, gate);
+        for (((row, slot), z), r) in rows.iter().zip(out.iter_mut()).zip(z.iter()).zip(r.iter()) {
+            *slot = self.kf.update_scalar(row, *z, *r, gate);
         }
         out
     }

@@ -46,11 +46,7 @@ fn config() -> EngineConfig<f64> {
             accel_bias_rw: 0.0,
             misalignment_rw: 0.0,
         },
-        measurement_noise: MeasurementNoise {
-            velocity_mps: 0.01,
-            attitude_rad: 1e-4,
-            rate_radps: 1e-4,
-        },
+        measurement_noise: MeasurementNoise::uniform(0.01, 1e-4, 1e-4),
         initial_sigma: InitialSigma {
             velocity_mps: 0.1,
             misalignment_rad: 0.02,

@@ -13,6 +13,7 @@ use flexcal_core::augment::{Effect, MAX_EFFECTS};
 use flexcal_core::engine::{Counters, EngineConfig, Matching};
 use flexcal_core::kalman::Health;
 use flexcal_core::link::codec::MAX_STUFFED_LEN;
+use flexcal_core::link::message::CONFIG_LEN;
 use flexcal_core::link::{
     encode, frame_len, ConfigMsg, DecodeError, Decoder, DecoderCounters, EffectPrior, EffectsError,
     EffectsMsg, EstimatesMsg, Frame, HealthFlags, ImuSampleMsg, LinkCounters, LinkError,
@@ -187,7 +188,7 @@ fn config() -> impl Strategy<Value = ConfigMsg> {
         ),
         (
             prop::array::uniform5(sigma()),
-            prop::array::uniform3(sigma()),
+            prop::array::uniform3(prop::array::uniform3(sigma())),
             prop::array::uniform5(sigma()),
             vec3(),
         ),
@@ -577,8 +578,11 @@ proptest! {
     #[test]
     fn config_augmentation_bytes(m in config(), aug in augmentation_bytes(), seq in any::<u16>()) {
         let mut payload = payload_of(&Message::Config(m));
-        prop_assert_eq!(payload.len(), 179);
-        payload[150..171].copy_from_slice(&aug);
+        prop_assert_eq!(payload.len(), CONFIG_LEN);
+        // The augmentation's 21 bytes start 29 bytes before the payload's end (the
+        // initial delay and the correlation time follow).
+        let at = CONFIG_LEN - 29;
+        payload[at..at + 21].copy_from_slice(&aug);
         let frame = raw_frame(0x03, seq, &payload);
         let mut d = Decoder::new();
         let results: Vec<_> = frame.iter().filter_map(|b| d.push(*b)).collect();

@@ -318,13 +318,13 @@ fn cases() -> Vec<Case> {
             Fail,
             "nis_out_of_band",
         )
-        .cfg(|c| c.attitude_noise_rad /= 10.0),
+        .cfg(|c| c.attitude_noise_rad = c.attitude_noise_rad.map(|v| v / 10.0)),
         case(
             "velocity noise declared 10× too large",
             Warn,
             "nis_out_of_band",
         )
-        .cfg(|c| c.velocity_noise_mps *= 10.0),
+        .cfg(|c| c.velocity_noise_mps = c.velocity_noise_mps.map(|v| v * 10.0)),
         case("innovation gate at 1σ", Fail, "gated_fraction_high").cfg(|c| c.gate_sigma = 1.0),
         case("gyro bias prior 1000× too tight", Warn, "sigma_not_falling")
             .cfg(|c| c.initial_gyro_bias_radps /= 1000.0),

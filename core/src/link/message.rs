@@ -36,7 +36,7 @@ pub const ESTIMATES_LEN: usize = 106;
 /// Payload length of [`StatusMsg`].
 pub const STATUS_LEN: usize = 128;
 /// Payload length of [`ConfigMsg`].
-pub const CONFIG_LEN: usize = 179;
+pub const CONFIG_LEN: usize = 203;
 /// Payload length of [`EndMsg`].
 pub const END_LEN: usize = 8;
 /// Payload length of [`EffectsMsg`].
@@ -326,7 +326,7 @@ pub enum EffectsError {
     UnusedSlot,
 }
 
-/// The engine configuration (type `0x03`, 175-byte payload): every field of
+/// The engine configuration (type `0x03`, 203-byte payload): every field of
 /// [`EngineConfig`], the augmentation included, plus how often the board reports. The
 /// board (re)creates its engine from it, so it runs exactly the model the desktop chose
 /// (a layout recommended by `flexcal diagnose` too), with no code change.
@@ -355,8 +355,9 @@ pub struct ConfigMsg {
     /// Process noise `[accel VRW, gyro ARW, gyro bias RW, accel bias RW, misalignment RW]`
     /// (units of [`ProcessNoise`], each ≥ 0).
     pub process_noise: [f32; 5],
-    /// Measurement noise `[velocity m/s, attitude rad, rate rad/s]` (each ≥ 0).
-    pub measurement_noise: [f32; 3],
+    /// Measurement noise σ per channel and axis (each ≥ 0): `[velocity m/s (ENU),
+    /// attitude rad (slave body), rate rad/s (slave body)]`, each `[x, y, z]`.
+    pub measurement_noise: [[f32; 3]; 3],
     /// Initial σ `[velocity m/s, misalignment rad, gyro bias rad/s, accel bias m/s²,
     /// flexure rad]` (each ≥ 0).
     pub initial_sigma: [f32; 5],
@@ -410,7 +411,11 @@ impl ConfigMsg {
                 f(p.accel_bias_rw),
                 f(p.misalignment_rw),
             ],
-            measurement_noise: [f(m.velocity_mps), f(m.attitude_rad), f(m.rate_radps)],
+            measurement_noise: [
+                to_f32s(&m.velocity_mps),
+                to_f32s(&m.attitude_rad),
+                to_f32s(&m.rate_radps),
+            ],
             initial_sigma: [
                 f(s.velocity_mps),
                 f(s.misalignment_rad),
@@ -481,9 +486,9 @@ impl ConfigMsg {
                 misalignment_rw: c(mr),
             },
             measurement_noise: MeasurementNoise {
-                velocity_mps: c(mv),
-                attitude_rad: c(ma),
-                rate_radps: c(mrate),
+                velocity_mps: from_f32s(&mv),
+                attitude_rad: from_f32s(&ma),
+                rate_radps: from_f32s(&mrate),
             },
             initial_sigma: InitialSigma {
                 velocity_mps: c(sv),
@@ -520,7 +525,7 @@ impl ConfigMsg {
             .iter()
             .chain(self.flexure.iter().flatten())
             .chain(self.process_noise.iter())
-            .chain(self.measurement_noise.iter())
+            .chain(self.measurement_noise.iter().flatten())
             .chain(self.initial_sigma.iter())
             .chain(self.initial_misalignment_rad.iter())
             .copied()
@@ -768,7 +773,7 @@ impl Message {
                 }
                 let sigmas_ok = m.flexure.iter().all(|[_, _, s]| *s >= 0.0)
                     && m.process_noise.iter().all(|x| *x >= 0.0)
-                    && m.measurement_noise.iter().all(|x| *x >= 0.0)
+                    && m.measurement_noise.iter().flatten().all(|x| *x >= 0.0)
                     && m.initial_sigma.iter().all(|x| *x >= 0.0);
                 if !(sigmas_ok
                     && m.filter_period_s > 0.0
@@ -876,7 +881,9 @@ impl Message {
                     w.f32s(axis)?;
                 }
                 w.f32s(&m.process_noise)?;
-                w.f32s(&m.measurement_noise)?;
+                for channel in &m.measurement_noise {
+                    w.f32s(channel)?;
+                }
                 w.f32s(&m.initial_sigma)?;
                 w.f32s(&m.initial_misalignment_rad)?;
                 w.f32(m.gate_sigma)?;
@@ -994,7 +1001,7 @@ impl Message {
                 let flexure_period_s = r.f64()?;
                 let flexure = [r.f32s()?, r.f32s()?, r.f32s()?];
                 let process_noise = r.f32s()?;
-                let measurement_noise = r.f32s()?;
+                let measurement_noise = [r.f32s()?, r.f32s()?, r.f32s()?];
                 let initial_sigma = r.f32s()?;
                 let initial_misalignment_rad = r.f32s()?;
                 let gate_sigma = r.f32()?;
@@ -1588,7 +1595,7 @@ mod tests {
             flexure_period_s: 0.01,
             flexure: [[1.9, -0.95, 1e-5], [1.8, -0.9, 2e-5], [0.5, 0.0, 3e-5]],
             process_noise: [1e-4, 1e-5, 1e-9, 1e-7, 0.0],
-            measurement_noise: [0.01, 1e-4, 2e-4],
+            measurement_noise: [[0.01, 0.02, 0.03], [1e-4, 2e-4, 3e-4], [2e-4, 4e-4, 6e-4]],
             initial_sigma: [0.1, 0.0174, 4.8e-6, 9.8e-3, 1e-3],
             initial_misalignment_rad: [0.001, -0.002, 0.003],
             gate_sigma: 5.0,
@@ -1628,22 +1635,25 @@ mod tests {
         assert_eq!(f32_at(&b, 70), 3e-5);
         assert_eq!(f32_at(&b, 74), 1e-4);
         assert_eq!(f32_at(&b, 90), 0.0);
-        assert_eq!(f32_at(&b, 94), 0.01);
-        assert_eq!(f32_at(&b, 106), 0.1);
-        assert_eq!(f32_at(&b, 122), 1e-3);
-        assert_eq!(f32_at(&b, 126), 0.001);
-        assert_eq!(f32_at(&b, 138), 5.0);
-        assert_eq!(f32_at(&b, 142), 1e-9);
-        assert_eq!(&b[146..150], &[10, 0, 100, 0]);
-        assert_eq!(b[150], 2, "two effects");
-        assert_eq!(b[151], Effect::TimeDelay.code());
-        assert_eq!(f32_at(&b, 152), 0.2);
-        assert_eq!(b[156], Effect::GyroScaleFactor.code());
-        assert_eq!(f32_at(&b, 157), 1e-3);
-        assert!(b[161..171].iter().all(|x| *x == 0), "unused slots are zero");
-        assert_eq!(f32_at(&b, 171), 0.02, "initial delay");
-        assert_eq!(f32_at(&b, 175), 45.0, "master error correlation time");
-        assert_eq!(b[179], 0xAA, "nothing written past the payload");
+        assert_eq!(f32_at(&b, 94), 0.01, "velocity noise x");
+        assert_eq!(f32_at(&b, 98), 0.02, "velocity noise y");
+        assert_eq!(f32_at(&b, 106), 1e-4, "attitude noise x");
+        assert_eq!(f32_at(&b, 126), 6e-4, "rate noise z");
+        assert_eq!(f32_at(&b, 130), 0.1);
+        assert_eq!(f32_at(&b, 146), 1e-3);
+        assert_eq!(f32_at(&b, 150), 0.001);
+        assert_eq!(f32_at(&b, 162), 5.0);
+        assert_eq!(f32_at(&b, 166), 1e-9);
+        assert_eq!(&b[170..174], &[10, 0, 100, 0]);
+        assert_eq!(b[174], 2, "two effects");
+        assert_eq!(b[175], Effect::TimeDelay.code());
+        assert_eq!(f32_at(&b, 176), 0.2);
+        assert_eq!(b[180], Effect::GyroScaleFactor.code());
+        assert_eq!(f32_at(&b, 181), 1e-3);
+        assert!(b[185..195].iter().all(|x| *x == 0), "unused slots are zero");
+        assert_eq!(f32_at(&b, 195), 0.02, "initial delay");
+        assert_eq!(f32_at(&b, 199), 45.0, "master error correlation time");
+        assert_eq!(b[203], 0xAA, "nothing written past the payload");
         let back = Message::read_payload(MessageKind::Config, &b[..n]).unwrap();
         assert_eq!(back, Message::Config(m));
 
@@ -1661,7 +1671,7 @@ mod tests {
         x[94..98].copy_from_slice(&(-1.0f32).to_le_bytes()); // negative noise
         assert_eq!(read(&x[..n]), Err(PayloadError::BadValue));
         let mut x = b;
-        x[138..142].copy_from_slice(&0.0f32.to_le_bytes()); // zero gate
+        x[162..166].copy_from_slice(&0.0f32.to_le_bytes()); // zero gate
         assert_eq!(read(&x[..n]), Err(PayloadError::BadValue));
         let mut x = b;
         x[42..46].copy_from_slice(&f32::NAN.to_le_bytes());
@@ -1676,16 +1686,16 @@ mod tests {
         let read = |b: &[u8]| Message::read_payload(MessageKind::Config, b);
         let bad = |e| Err(PayloadError::BadEffects(e));
         let mut x = b;
-        x[150] = 5; // more blocks than MAX_EFFECTS
+        x[174] = 5; // more blocks than MAX_EFFECTS
         assert_eq!(read(&x[..n]), bad(EffectsError::TooMany { count: 5 }));
         let mut x = b;
-        x[156] = 0; // code 0 in a used slot
+        x[180] = 0; // code 0 in a used slot
         assert_eq!(read(&x[..n]), bad(EffectsError::UnknownCode { code: 0 }));
         let mut x = b;
-        x[156] = 42;
+        x[180] = 42;
         assert_eq!(read(&x[..n]), bad(EffectsError::UnknownCode { code: 42 }));
         let mut x = b;
-        x[156] = Effect::TimeDelay.code();
+        x[180] = Effect::TimeDelay.code();
         let dup = EffectsError::Duplicate {
             code: Effect::TimeDelay.code(),
         };
@@ -1695,14 +1705,14 @@ mod tests {
         };
         for p in [0.0f32, -0.0, -1e-3, f32::NAN, f32::INFINITY] {
             let mut x = b;
-            x[157..161].copy_from_slice(&p.to_le_bytes());
+            x[181..185].copy_from_slice(&p.to_le_bytes());
             assert_eq!(read(&x[..n]), bad(prior), "prior {p}");
         }
         let mut x = b;
-        x[150] = 1; // the second block's bytes are now an unused slot, not zero
+        x[174] = 1; // the second block's bytes are now an unused slot, not zero
         assert_eq!(read(&x[..n]), bad(EffectsError::UnusedSlot));
         let mut x = b;
-        x[170] = 1; // stray byte in the last, unused slot
+        x[194] = 1; // stray byte in the last, unused slot
         assert_eq!(read(&x[..n]), bad(EffectsError::UnusedSlot));
         // A block after an empty slot cannot be encoded.
         let mut gap = m;
@@ -1731,7 +1741,7 @@ mod tests {
         let mut none = m;
         none.effects = [None; MAX_EFFECTS];
         let (b0, n0) = payload(&Message::Config(none));
-        assert!(b0[150..171].iter().all(|x| *x == 0));
+        assert!(b0[174..195].iter().all(|x| *x == 0));
         assert_eq!(read(&b0[..n0]), Ok(Message::Config(none)));
         assert!(none.augmentation::<f64>().is_empty());
     }

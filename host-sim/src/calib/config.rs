@@ -21,6 +21,39 @@ pub fn parse_effect(name: &str) -> Result<Effect, String> {
     })
 }
 
+/// A per-axis σ in a configuration file: one number (every axis) or an array of three.
+fn per_axis<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Error> {
+    struct PerAxis;
+    impl<'de> serde::de::Visitor<'de> for PerAxis {
+        type Value = [f64; 3];
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("a number (every axis) or an array of three numbers [x, y, z]")
+        }
+        fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<[f64; 3], E> {
+            Ok([v; 3])
+        }
+        fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<[f64; 3], E> {
+            Ok([v as f64; 3])
+        }
+        fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<[f64; 3], E> {
+            Ok([v as f64; 3])
+        }
+        fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<[f64; 3], A::Error> {
+            let mut out = [0.0; 3];
+            for (k, slot) in out.iter_mut().enumerate() {
+                *slot = seq
+                    .next_element()?
+                    .ok_or_else(|| serde::de::Error::invalid_length(k, &self))?;
+            }
+            if seq.next_element::<f64>()?.is_some() {
+                return Err(serde::de::Error::invalid_length(4, &self));
+            }
+            Ok(out)
+        }
+    }
+    d.deserialize_any(PerAxis)
+}
+
 /// Calibration configuration (TOML).
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields)]
@@ -54,13 +87,17 @@ pub struct CalibConfig {
     /// Mounting misalignment random walk (rad/√s): lets the misalignment follow a slow
     /// drift (thermal bending, a master whose attitude error wanders). Zero: constant.
     pub misalignment_rw_rad_rs: f64,
-    /// Velocity matching noise (m/s).
-    pub velocity_noise_mps: f64,
-    /// Attitude matching noise (rad).
-    pub attitude_noise_rad: f64,
-    /// The master's angular-rate noise (rad/s, per axis); the slave gyro's part of the
-    /// rate-matching noise is derived from `gyro_arw_rad_rs`.
-    pub rate_noise_radps: f64,
+    /// Velocity matching noise (m/s, ENU `[e, n, u]`; one number: every axis).
+    #[serde(deserialize_with = "per_axis")]
+    pub velocity_noise_mps: [f64; 3],
+    /// Attitude matching noise (rad, slave body `[x, y, z]`; one number: every axis).
+    #[serde(deserialize_with = "per_axis")]
+    pub attitude_noise_rad: [f64; 3],
+    /// The master's angular-rate noise (rad/s, slave body `[x, y, z]`; one number: every
+    /// axis); the slave gyro's part of the rate-matching noise is derived from
+    /// `gyro_arw_rad_rs`.
+    #[serde(deserialize_with = "per_axis")]
+    pub rate_noise_radps: [f64; 3],
     /// Initial σ of the velocity error (m/s).
     pub initial_velocity_mps: f64,
     /// Initial σ of the misalignment (rad).
@@ -125,9 +162,9 @@ impl CalibConfig {
             gyro_bias_rw: 0.0,
             accel_bias_rw: 0.0,
             misalignment_rw_rad_rs: 0.0,
-            velocity_noise_mps: 0.01,
-            attitude_noise_rad: 1e-4,
-            rate_noise_radps: 1e-4,
+            velocity_noise_mps: [0.01; 3],
+            attitude_noise_rad: [1e-4; 3],
+            rate_noise_radps: [1e-4; 3],
             initial_velocity_mps: 0.1,
             initial_misalignment_rad: 1f64.to_radians(),
             initial_gyro_bias_radps: 1.0 * sim::DEG_PER_H,
@@ -226,9 +263,9 @@ impl CalibConfig {
             accel_vrw_mps_rs: sc.slave_imu.accel_vrw_mps_rh / 60.0,
             gyro_bias_rw: 0.0,
             accel_bias_rw: 0.0,
-            velocity_noise_mps: sc.master.velocity_noise_mps,
-            attitude_noise_rad: sc.master.attitude_noise_deg.to_radians(),
-            rate_noise_radps: rate_noise,
+            velocity_noise_mps: [sc.master.velocity_noise_mps; 3],
+            attitude_noise_rad: [sc.master.attitude_noise_deg.to_radians(); 3],
+            rate_noise_radps: [rate_noise; 3],
             effects,
             master_attitude_error_rad: smooth_att,
             master_velocity_error_mps: smooth_vel,
@@ -257,11 +294,23 @@ impl CalibConfig {
                 ));
             }
         }
-        let positive = [
-            ("filter_period_s", self.filter_period_s),
+        for (k, axes) in [
             ("velocity_noise_mps", self.velocity_noise_mps),
             ("attitude_noise_rad", self.attitude_noise_rad),
             ("rate_noise_radps", self.rate_noise_radps),
+        ] {
+            if let Some((axis, v)) = axes
+                .iter()
+                .enumerate()
+                .find(|(_, v)| !(v.is_finite() && **v > 0.0))
+            {
+                return Err(format!(
+                    "`{k}` must be positive numbers, got {v} on axis {axis}"
+                ));
+            }
+        }
+        let positive = [
+            ("filter_period_s", self.filter_period_s),
             ("gate_sigma", self.gate_sigma),
             ("initial_velocity_mps", self.initial_velocity_mps),
             ("initial_misalignment_rad", self.initial_misalignment_rad),
@@ -388,9 +437,9 @@ impl CalibConfig {
                 misalignment_rw: c(self.misalignment_rw_rad_rs),
             },
             measurement_noise: MeasurementNoise {
-                velocity_mps: c(self.velocity_noise_mps),
-                attitude_rad: c(self.attitude_noise_rad),
-                rate_radps: c(self.rate_noise_radps),
+                velocity_mps: Vector3::from(self.velocity_noise_mps.map(c)),
+                attitude_rad: Vector3::from(self.attitude_noise_rad.map(c)),
+                rate_radps: Vector3::from(self.rate_noise_radps.map(c)),
             },
             initial_sigma: InitialSigma {
                 velocity_mps: c(self.initial_velocity_mps),
@@ -413,5 +462,51 @@ impl CalibConfig {
             augmentation: self.augmentation().unwrap_or_default(),
             initial_delay_s: self.initial_delay_s,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Result<CalibConfig, String> {
+        let c: CalibConfig = toml::from_str(text).map_err(|e| e.to_string())?;
+        c.validate()?;
+        Ok(c)
+    }
+
+    #[test]
+    fn channel_noise_is_one_number_or_three() {
+        let one = parse("velocity_noise_mps = 0.02\nrate_noise_radps = 1").unwrap();
+        assert_eq!(one.velocity_noise_mps, [0.02; 3]);
+        assert_eq!(one.rate_noise_radps, [1.0; 3]);
+        let three = parse("attitude_noise_rad = [1e-4, 2e-4, 3e-4]").unwrap();
+        assert_eq!(three.attitude_noise_rad, [1e-4, 2e-4, 3e-4]);
+        let e = three.engine_config::<f64>([0.0; 3]);
+        assert_eq!(
+            e.measurement_noise.attitude_rad,
+            Vector3::new(1e-4, 2e-4, 3e-4)
+        );
+        // What the learner writes reads back the same.
+        let back = parse(&toml::to_string(&three).unwrap()).unwrap();
+        assert_eq!(back, three);
+    }
+
+    #[test]
+    fn bad_channel_noise_names_the_key_and_the_axis() {
+        let short = parse("velocity_noise_mps = [0.1, 0.2]").unwrap_err();
+        assert!(
+            short.contains("velocity_noise_mps") && short.contains("three"),
+            "{short}"
+        );
+        let long = parse("velocity_noise_mps = [0.1, 0.2, 0.3, 0.4]").unwrap_err();
+        assert!(long.contains("velocity_noise_mps"), "{long}");
+        let text = parse("velocity_noise_mps = \"fast\"").unwrap_err();
+        assert!(text.contains("a number (every axis)"), "{text}");
+        let zero = parse("rate_noise_radps = [1e-4, 0, 1e-4]").unwrap_err();
+        assert!(
+            zero.contains("`rate_noise_radps`") && zero.contains("axis 1"),
+            "{zero}"
+        );
     }
 }

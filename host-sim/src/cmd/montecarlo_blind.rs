@@ -205,8 +205,7 @@ pub fn run(a: &Args) -> Result<(), String> {
     for (i, name) in NAMES.iter().enumerate() {
         println!(
             "  {name:5}   {:8.3}        {:8.3}",
-            agg_l.normalized_rms[i],
-            agg_d.normalized_rms[i]
+            agg_l.normalized_rms[i], agg_d.normalized_rms[i]
         );
     }
     for (name, agg) in [("learned", &agg_l), ("built-in default", &agg_d)] {

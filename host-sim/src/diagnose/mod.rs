@@ -182,10 +182,10 @@ const NOISE_PASSES: usize = 3;
 pub struct NoiseCorrection {
     /// The configuration key.
     pub key: &'static str,
-    /// Declared σ.
-    pub declared: f64,
-    /// σ used for the search.
-    pub corrected: f64,
+    /// Declared σ per axis of the channel.
+    pub declared: [f64; 3],
+    /// σ per axis used for the search.
+    pub corrected: [f64; 3],
     /// The channel's mean NIS with the declared σ.
     pub declared_nis: f64,
 }
@@ -235,7 +235,9 @@ fn correct_noise(
                 _ => &mut cfg.rate_noise_radps,
             };
             let declared_sigma = *sigma;
-            *sigma *= nis.sqrt();
+            for axis in sigma.iter_mut() {
+                *axis *= nis.sqrt();
+            }
             any = true;
             match changed.iter_mut().find(|c| c.key == key) {
                 Some(c) => c.corrected = *sigma,

@@ -329,6 +329,11 @@ fn rounds_json(d: &Diagnosis) -> Value {
     v
 }
 
+/// A per-axis value, `x, y, z` in `fmt_g`'s form.
+fn fmt_axes(v: &[f64; 3]) -> String {
+    v.map(fmt_g).join(", ")
+}
+
 fn fmt_g(v: f64) -> String {
     if !v.is_finite() {
         return format!("{v}");
@@ -372,8 +377,8 @@ pub fn report_md(d: &Diagnosis, rec_label: &str, rec: &Recording, command: &str)
                 s,
                 "| `{}` | {} | {} | {} |",
                 c.key,
-                fmt_g(c.declared),
-                fmt_g(c.corrected),
+                fmt_axes(&c.declared),
+                fmt_axes(&c.corrected),
                 fmt_g(c.declared_nis)
             );
         }

@@ -46,13 +46,16 @@ pub fn drawn_values(sc: &Scenario) -> Vec<(Param, f64)> {
         v.push((Param::MasterVelocityError, e.velocity_mps));
         v.push((Param::MasterErrorCorrelation, e.correlation_s));
     } else {
-        for (p, value) in [
-            (Param::VelocityNoise, m.velocity_noise_mps),
-            (Param::AttitudeNoise, m.attitude_noise_deg.to_radians()),
-            (Param::RateNoise, m.rate_noise_deg_h * DEG_PER_H),
-        ] {
-            if value > 0.0 && (p != Param::RateNoise || m.gives_rate) {
-                v.push((p, value));
+        // The draw is one σ for the three axes of a channel; each axis is learned.
+        for k in 0..3 {
+            for (p, value) in [
+                (Param::VelocityNoise(k), m.velocity_noise_mps),
+                (Param::AttitudeNoise(k), m.attitude_noise_deg.to_radians()),
+                (Param::RateNoise(k), m.rate_noise_deg_h * DEG_PER_H),
+            ] {
+                if value > 0.0 && (p != Param::RateNoise(k) || m.gives_rate) {
+                    v.push((p, value));
+                }
             }
         }
     }
@@ -107,14 +110,14 @@ pub fn param_errors(
         .collect()
 }
 
-/// The kind of a quantity in the acceptance table (per-axis flexure quantities pooled).
+/// The kind of a quantity in the acceptance table (per-axis quantities pooled).
 pub fn kind(p: Param) -> &'static str {
     match p {
         Param::GyroArw => "gyro angle random walk",
         Param::AccelVrw => "accel velocity random walk",
-        Param::VelocityNoise => "master velocity noise (white)",
-        Param::AttitudeNoise => "master attitude noise (white)",
-        Param::RateNoise => "master rate noise (white)",
+        Param::VelocityNoise(_) => "master velocity noise (white)",
+        Param::AttitudeNoise(_) => "master attitude noise (white)",
+        Param::RateNoise(_) => "master rate noise (white)",
         Param::MasterAttitudeError => "master attitude error (smooth)",
         Param::MasterVelocityError => "master velocity error (smooth)",
         Param::MasterErrorCorrelation => "master error correlation time",

@@ -328,11 +328,11 @@ fn model_section(s: &mut String, r: &ReportInput<'_>, res: &CalibResult) {
     );
     let _ = writeln!(
         s,
-        "- master noise: velocity {} m/s, attitude {} {}, rate {} {}",
-        sig3(c.velocity_noise_mps),
-        sig3(c.attitude_noise_rad * ANGLE.scale),
+        "- master noise per axis: velocity {} m/s (E, N, U), attitude {} {} (x, y, z), rate {} {} (x, y, z)",
+        c.velocity_noise_mps.map(sig3).join(", "),
+        c.attitude_noise_rad.map(|v| sig3(v * ANGLE.scale)).join(", "),
         ANGLE.name,
-        sig3(c.rate_noise_radps * GYRO_BIAS.scale),
+        c.rate_noise_radps.map(|v| sig3(v * GYRO_BIAS.scale)).join(", "),
         GYRO_BIAS.name
     );
     let _ = writeln!(
