@@ -59,6 +59,13 @@ pub struct MeasurementNoise<T> {
     /// process noise's angle random walk and the interpolation weights
     /// (`AlignBuffer::rate_at`).
     pub rate_radps: Vector3<T>,
+    /// σ of the master's rate noise as the lever arm carries it into the velocity
+    /// matching (rad/s, the mean over the axes), when the master gives its rate: the
+    /// velocity noise adds `⅔ |r0|² σ²`. Apart from `rate_radps` because what the rate
+    /// matching's noise holds beyond the master's own (model error of the slave's side)
+    /// does not move the master's lever-arm velocity; [`MeasurementNoise::uniform`] and
+    /// a configuration that does not say otherwise take the rate noise's RMS.
+    pub lever_arm_rate_radps: T,
 }
 
 impl<T: Real> MeasurementNoise<T> {
@@ -69,6 +76,7 @@ impl<T: Real> MeasurementNoise<T> {
             velocity_mps: Vector3::repeat(velocity_mps),
             attitude_rad: Vector3::repeat(attitude_rad),
             rate_radps: Vector3::repeat(rate_radps),
+            lever_arm_rate_radps: rate_radps,
         }
     }
 }
@@ -974,7 +982,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
 
     /// The master body's rate relative to the Earth (rad/s, master body), for the
     /// lever-arm velocity, with the variance of its noise, the mean over the axes
-    /// (rad²/s²): from the master's rate when given (its declared noise), else from the
+    /// (rad²/s²): from the master's rate when given (`lever_arm_rate_radps`), else from the
     /// change of its attitude since the previous message (√2 σ_att / Δt), else zero with
     /// no noise.
     /// `here`: the Earth model at the master's position.
@@ -987,7 +995,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         let noise = &self.cfg.measurement_noise;
         let w_ie_b = c_bm_n.transpose() * here.earth_rate_n();
         if let Some(w) = msg.w_ib_bm {
-            let sigma = rms(&noise.rate_radps);
+            let sigma = noise.lever_arm_rate_radps;
             return (w - w_ie_b, sigma * sigma);
         }
         match self.prev_master {

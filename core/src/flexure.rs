@@ -1,17 +1,149 @@
-//! The flexure model the filter carries: per axis an AR(2) process identified at the
-//! filter period `T` (orders 0 and 1 are AR(2) with trailing zero coefficients),
+//! The flexure model the filter carries, per axis one of two two-state models:
 //!
-//! ```text
-//! θ_{k+1} = a1 θ_k + a2 θ_{k−1} + η_k,   η_k ~ N(0, σ²)
-//! ```
+//! - **AR(2)** identified at the filter period `T` (orders 0 and 1 are AR(2) with
+//!   trailing zero coefficients),
 //!
-//! kept discrete (paper-notes item 6) in the coordinates the error model needs:
-//! the angle `θ_k` and the mean flexure rate over the last filter interval
-//! `θ̇_k = (θ_k − θ_{k−1}) / T`. That rate is *exactly* the mean of dθ/dt over
-//! `(t_{k−1}, t_k]` for any trajectory, which is what a slave gyro integrates.
+//!   ```text
+//!   θ_{k+1} = a1 θ_k + a2 θ_{k−1} + η_k,   η_k ~ N(0, σ²)
+//!   ```
+//!
+//!   kept discrete (paper-notes item 6) in the coordinates the error model needs: the
+//!   angle `θ_k` and the mean flexure rate over the last filter interval
+//!   `θ̇_k = (θ_k − θ_{k−1}) / T`. That rate is *exactly* the mean of dθ/dt over
+//!   `(t_{k−1}, t_k]` for any trajectory.
+//! - **Second-order Gauss-Markov**, `θ̈ + 2ζω θ̇ + ω² θ = w` (`w` white), the continuous
+//!   model a hull's bending mode is (`docs/error-model.md`), sampled exactly: the state
+//!   is `[θ(t_k), θ̇(t_k)]` (the rate *at* `t_k`, what the rate matching compares),
+//!   `Φ = e^{AT}` and `Q = P∞ − Φ P∞ Φᵀ` with `P∞ = diag(σ², ω²σ²)` (the process is
+//!   stationary: that is its discrete Lyapunov equation). A sampled continuous
+//!   second-order process is an ARMA(2,1), which no AR(2) of `θ` alone is: the AR(2)
+//!   with the same poles and variance overstates the one-step prediction variance of
+//!   `θ` 1.6× and carries the mean rate over the interval where the rate matching sees
+//!   the rate at its end (test
+//!   `gauss_markov_ar2_overstates_the_one_step_variance_by_the_moving_average_factor`).
+//!   The model learner identifies ω, ζ, σ per axis and the filter carries this form.
 
 use crate::real::Real;
 use nalgebra::{Matrix2, Vector2};
+
+/// One axis of the flexure model.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AxisModel<T> {
+    /// AR(2) at the filter period; state `[θ_k, mean rate over the last interval]`.
+    Ar(ArAxis<T>),
+    /// Second-order Gauss-Markov sampled exactly; state `[θ(t_k), θ̇(t_k)]`.
+    SecondOrder(SecondOrderAxis<T>),
+}
+
+impl<T: Real> AxisModel<T> {
+    /// Transition of the axis's two states over one period `t` (a second-order axis
+    /// was discretized at its model's period, which the engine requires to be `t`).
+    pub fn transition(&self, t: T) -> Matrix2<T> {
+        match self {
+            AxisModel::Ar(a) => a.transition(t),
+            AxisModel::SecondOrder(g) => g.phi,
+        }
+    }
+
+    /// Covariance of the process noise the axis's two states take over one period `t`
+    /// (rad², rad²/s, rad²/s²).
+    pub fn noise_covariance(&self, t: T) -> Matrix2<T> {
+        match self {
+            AxisModel::Ar(a) => {
+                let g = a.noise_gain(t);
+                g * g.transpose() * (a.sigma_rad * a.sigma_rad)
+            }
+            AxisModel::SecondOrder(g) => g.q,
+        }
+    }
+
+    /// Stationary covariance of the two states, or `None` for a non-stationary model.
+    pub fn stationary_covariance(&self, t: T) -> Option<Matrix2<T>> {
+        match self {
+            AxisModel::Ar(a) => a.stationary_covariance(t),
+            AxisModel::SecondOrder(g) => Some(g.stationary_covariance()),
+        }
+    }
+}
+
+/// A second-order Gauss-Markov flexure axis, `θ̈ + 2ζω θ̇ + ω² θ = w`, with its exact
+/// discretization at the period it was built for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SecondOrderAxis<T> {
+    /// Natural frequency ω (rad/s), > 0.
+    pub omega_rad_s: T,
+    /// Damping ratio ζ, > 0.
+    pub damping: T,
+    /// Stationary σ of θ (rad), ≥ 0.
+    pub sigma_rad: T,
+    /// `e^{AT}` of `[θ, θ̇]`.
+    phi: Matrix2<T>,
+    /// Process noise over one period: `P∞ − Φ P∞ Φᵀ`.
+    q: Matrix2<T>,
+}
+
+impl<T: Real> SecondOrderAxis<T> {
+    /// The axis sampled at period `t` (s), or `None` unless ω > 0, ζ > 0, σ ≥ 0, t > 0
+    /// (all finite). Computed in `f64` whatever `T` (once per configuration): in `f32`
+    /// the difference `P∞ − Φ P∞ Φᵀ` would lose the angle's part, `q t³/3`, which is
+    /// about `(ωt)³` of `σ²`.
+    pub fn new(omega_rad_s: T, damping: T, sigma_rad: T, t: T) -> Option<Self> {
+        let (w, z, s, dt) = (
+            omega_rad_s.to_f64(),
+            damping.to_f64(),
+            sigma_rad.to_f64(),
+            t.to_f64(),
+        );
+        let valid = [w, z, s, dt].iter().all(|v| v.is_finite()) && w > 0.0 && z > 0.0 && s >= 0.0 && dt > 0.0;
+        if !valid {
+            return None;
+        }
+        let a = Matrix2::new(0.0, 1.0, -w * w, -2.0 * z * w);
+        let phi = expm2(&(a * dt))?;
+        let p_inf = Matrix2::new(s * s, 0.0, 0.0, (w * s) * (w * s));
+        let q = p_inf - phi * p_inf * phi.transpose();
+        // Exactly symmetric.
+        let q = (q + q.transpose()) * 0.5;
+        Some(Self {
+            omega_rad_s,
+            damping,
+            sigma_rad,
+            phi: phi.map(T::of),
+            q: q.map(T::of),
+        })
+    }
+
+    /// `diag(σ², ω²σ²)`: θ and θ̇ of a stationary second-order process are uncorrelated.
+    pub fn stationary_covariance(&self) -> Matrix2<T> {
+        let (s, w) = (self.sigma_rad, self.omega_rad_s);
+        Matrix2::new(s * s, T::zero(), T::zero(), (w * s) * (w * s))
+    }
+}
+
+/// `e^M` of a 2×2 matrix by scaling and squaring a Taylor series (no trigonometry: the
+/// board computes it too); `None` for a matrix too large to be a flexure mode's `AT`.
+fn expm2(m: &Matrix2<f64>) -> Option<Matrix2<f64>> {
+    let norm = m.iter().fold(0.0f64, |a, v| a.max(v.abs())) * 2.0;
+    if !norm.is_finite() || norm > 1e6 {
+        return None;
+    }
+    let mut squarings = 0u32;
+    let mut scale = 1.0;
+    while norm * scale > 0.25 {
+        scale *= 0.5;
+        squarings += 1;
+    }
+    let small = m * scale;
+    let (mut e, mut term) = (Matrix2::identity(), Matrix2::identity());
+    for k in 1..=12 {
+        term = term * small / f64::from(k);
+        e += term;
+    }
+    for _ in 0..squarings {
+        e = e * e;
+    }
+    Some(e)
+}
 
 /// AR(2) flexure model of one axis at the filter period.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -27,8 +159,8 @@ pub struct ArAxis<T> {
 /// The three-axis flexure model (axes of the slave body frame) at period `T`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FlexureModel<T> {
-    /// Per-axis AR coefficients and noise.
-    pub axes: [ArAxis<T>; 3],
+    /// Per-axis model.
+    pub axes: [AxisModel<T>; 3],
     /// Sample period the coefficients belong to, which is the filter period (s).
     pub period_s: T,
 }
@@ -178,6 +310,73 @@ mod tests {
                 "{omega} {zeta} {t}: {ratio}"
             );
         }
+    }
+
+    /// Φ against the closed form of an under-damped oscillator's `e^{At}`, Q against
+    /// the Van Loan integral (`exact_one_step_variance`'s series), and the stationary
+    /// covariance a fixed point of the propagation; also for an over-damped axis.
+    #[test]
+    fn second_order_axis_is_the_exact_sampled_process() {
+        use nalgebra::Matrix4;
+        for &(w, z, s, t) in &[(1.43f64, 0.33, 5e-4, 0.02), (0.5, 0.1, 1e-3, 0.01), (2.5, 1.6, 2e-4, 0.1)] {
+            let g = SecondOrderAxis::new(w, z, s, t).expect("valid");
+            if z < 1.0 {
+                let (a, wd) = (z * w, w * (1.0 - z * z).sqrt());
+                let (c, sn, e) = ((wd * t).cos(), (wd * t).sin(), (-a * t).exp());
+                let closed = Matrix2::new(
+                    e * (c + a / wd * sn),
+                    e * sn / wd,
+                    -e * w * w * sn / wd,
+                    e * (c - a / wd * sn),
+                );
+                assert!((g.phi - closed).norm() < 1e-12 * closed.norm(), "{w} {z}");
+            }
+            let q = 4.0 * z * w.powi(3) * s * s;
+            let a = Matrix2::new(0.0, 1.0, -w * w, -2.0 * z * w);
+            let mut m = Matrix4::zeros();
+            m.fixed_view_mut::<2, 2>(0, 0).copy_from(&(-a));
+            m[(1, 3)] = q;
+            m.fixed_view_mut::<2, 2>(2, 2).copy_from(&a.transpose());
+            let (mut e, mut term) = (Matrix4::identity(), Matrix4::identity());
+            for k in 1..60 {
+                term = term * m * (t / k as f64);
+                e += term;
+            }
+            let phi: Matrix2<f64> = e.fixed_view::<2, 2>(2, 2).transpose();
+            let van_loan = phi * e.fixed_view::<2, 2>(0, 2);
+            for (i, j) in [(0, 0), (0, 1), (1, 1)] {
+                let rel = (g.q[(i, j)] - van_loan[(i, j)]).abs() / van_loan[(i, j)].abs();
+                assert!(rel < 1e-6, "{w} {z} Q({i},{j}): {} vs {}", g.q[(i, j)], van_loan[(i, j)]);
+            }
+            let p = g.stationary_covariance();
+            let next = g.phi * p * g.phi.transpose() + g.q;
+            assert!((next - p).norm() < 1e-12 * p.norm());
+            let m = AxisModel::SecondOrder(g);
+            assert_eq!(m.transition(t), g.phi);
+            assert_eq!(m.noise_covariance(t), g.q);
+        }
+    }
+
+    /// The same axis built in `f32` (the board) keeps the angle's small process noise:
+    /// it is computed in `f64` and rounded once.
+    #[test]
+    fn second_order_axis_in_f32_keeps_the_angle_noise() {
+        let g64 = SecondOrderAxis::new(1.0f64, 0.3, 3e-4, 0.01).expect("valid");
+        let g32 = SecondOrderAxis::new(1.0f32, 0.3, 3e-4, 0.01).expect("valid");
+        for (i, j) in [(0, 0), (0, 1), (1, 1)] {
+            let rel = (f64::from(g32.q[(i, j)]) - g64.q[(i, j)]).abs() / g64.q[(i, j)].abs();
+            assert!(rel < 1e-6, "Q({i},{j}) {rel}");
+        }
+    }
+
+    #[test]
+    fn second_order_axis_refuses_what_is_not_a_damped_mode() {
+        assert!(SecondOrderAxis::new(0.0f64, 0.3, 1e-4, 0.01).is_none());
+        assert!(SecondOrderAxis::new(1.0f64, 0.0, 1e-4, 0.01).is_none());
+        assert!(SecondOrderAxis::new(1.0f64, 0.3, -1e-4, 0.01).is_none());
+        assert!(SecondOrderAxis::new(1.0f64, 0.3, 1e-4, 0.0).is_none());
+        assert!(SecondOrderAxis::new(f64::NAN, 0.3, 1e-4, 0.01).is_none());
+        assert!(SecondOrderAxis::new(1e30f64, 0.3, 1e-4, 0.01).is_none());
     }
 
     #[test]

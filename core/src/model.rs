@@ -144,7 +144,7 @@ pub fn dynamics<T: Real, const S: usize>(
 
 /// Transition matrix Φ over one filter period `t` (s): third-order Taylor series of
 /// the navigation and augmented blocks (the bias-to-velocity path runs through three
-/// blocks), the exact discrete AR model on the flexure block; every other row is the
+/// blocks), each flexure axis's exact discrete model on the flexure block; every other row is the
 /// identity's. Only the rows with dynamics are computed, and their products only over
 /// the columns where `F t` is not zero (`(F t)²` and `(F t)³` have no others).
 pub fn transition<T: Real, const S: usize>(
@@ -227,7 +227,7 @@ pub fn transition<T: Real, const S: usize>(
         }
         phi.set_row(i, &row);
     }
-    // The flexure rows: θ_k (row DYN + k) and θ̇_k (row DYN + 3 + k) of the AR(2) model.
+    // The flexure rows: θ_k (row DYN + k) and θ̇_k (row DYN + 3 + k) of each axis's model.
     for (axis, ar) in flex.axes.iter().enumerate() {
         let a = ar.transition(flex.period_s);
         let (th, thd) = (TH + axis, THD + axis);
@@ -270,8 +270,7 @@ pub fn process_noise<T: Real, const S: usize>(
         }
     }
     for ((axis, ar), pair) in flex.axes.iter().enumerate().zip(q.pairs.iter_mut()) {
-        let g = ar.noise_gain(flex.period_s);
-        let qb = g * g.transpose() * (ar.sigma_rad * ar.sigma_rad);
+        let qb = ar.noise_covariance(flex.period_s);
         let (th, thd) = (TH + axis, THD + axis);
         if let Some(e) = q.diag.get_mut(th) {
             *e = mat::get(&qb, 0, 0);

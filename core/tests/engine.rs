@@ -13,7 +13,7 @@ use flexcal_core::engine::{
     Engine, EngineConfig, EngineError, ImuIncrement, InitialSigma, MasterNav, Matching,
     MeasurementNoise, StepReports, PENDING_DEPTH,
 };
-use flexcal_core::flexure::{ArAxis, FlexureModel};
+use flexcal_core::flexure::{ArAxis, AxisModel, FlexureModel};
 use flexcal_core::model::{LeverBending, ProcessNoise};
 use nalgebra::{UnitQuaternion, Vector3};
 use proptest::prelude::*;
@@ -32,11 +32,11 @@ fn config() -> EngineConfig<f64> {
         bending: LeverBending::UniformArc,
         dynamic_lever_arm: true,
         flexure: FlexureModel {
-            axes: [ArAxis {
+            axes: [AxisModel::Ar(ArAxis {
                 a1: 1.9,
                 a2: -0.91,
                 sigma_rad: 1e-6,
-            }; 3],
+            }); 3],
             period_s: 0.01,
         },
         process_noise: ProcessNoise {

@@ -26,7 +26,7 @@
 
 use flexcal_core::augment::{Augmentation, Effect};
 use flexcal_core::earth::Position;
-use flexcal_core::flexure::{ArAxis, FlexureModel};
+use flexcal_core::flexure::{ArAxis, AxisModel, FlexureModel};
 use flexcal_core::model::{self, IntervalMeans};
 use flexcal_core::rotation::{dcm, nlerp, quat_exp, quat_log};
 use flexcal_core::strapdown::{Increments, NavState, Strapdown};
@@ -175,11 +175,11 @@ fn check<const S: usize>(aug: &Augmentation<f64>, steps: usize, dt: f64) {
         pos: end.pos,
     };
     let flex = FlexureModel {
-        axes: [ArAxis {
+        axes: [AxisModel::Ar(ArAxis {
             a1: 0.0,
             a2: 0.0,
             sigma_rad: 0.0,
-        }; 3],
+        }); 3],
         period_s: t,
     };
     let phi = model::transition::<f64, S>(&means, &flex, aug, t);
@@ -278,11 +278,11 @@ fn master_error_blocks_are_outside_the_other_rows_of_the_transition() {
     };
     let t = 0.1;
     let flex = FlexureModel {
-        axes: [ArAxis {
+        axes: [AxisModel::Ar(ArAxis {
             a1: 0.5,
             a2: -0.1,
             sigma_rad: 1e-4,
-        }; 3],
+        }); 3],
         period_s: t,
     };
     let phi = model::transition::<f64, 27>(&means, &flex, &aug, t);

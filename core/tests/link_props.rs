@@ -13,6 +13,7 @@ use flexcal_core::augment::{Effect, MAX_EFFECTS};
 use flexcal_core::engine::{Counters, EngineConfig, Matching};
 use flexcal_core::kalman::Health;
 use flexcal_core::link::codec::MAX_STUFFED_LEN;
+use flexcal_core::flexure::SecondOrderAxis;
 use flexcal_core::link::message::CONFIG_LEN;
 use flexcal_core::link::{
     encode, frame_len, ConfigMsg, DecodeError, Decoder, DecoderCounters, EffectPrior, EffectsError,
@@ -185,6 +186,8 @@ fn config() -> impl Strategy<Value = ConfigMsg> {
         (
             vec3(),
             prop::array::uniform3((finite_f32(), finite_f32(), sigma())),
+            // Second-order Gauss-Markov axes: ω (rad/s) and ζ where they are physical.
+            prop::array::uniform3((any::<bool>(), 0.01f32..100.0, 0.01f32..2.0)),
         ),
         (
             prop::array::uniform5(sigma()),
@@ -203,11 +206,22 @@ fn config() -> impl Strategy<Value = ConfigMsg> {
         .prop_map(
             |(
                 (t, filter_period_s, flexure_period_s, flags),
-                (lever_arm_m, flexure),
+                (lever_arm_m, flexure, second_order),
                 (process_noise, measurement_noise, initial_sigma, initial_misalignment_rad),
                 (gate_sigma, variance_floor, estimates_every, status_every),
                 (effects, priors, initial_delay_s, master_error_correlation_s),
             )| {
+                // A second-order axis the protocol can carry at this period (a period of
+                // 1e300 s is no sampling of a 1 rad/s mode).
+                let physical = |omega: f32, zeta: f32, sigma: f32| {
+                    SecondOrderAxis::new(
+                        f64::from(omega),
+                        f64::from(zeta),
+                        f64::from(sigma),
+                        flexure_period_s,
+                    )
+                    .is_some()
+                };
                 let mut slots = [None; MAX_EFFECTS];
                 for ((slot, effect), prior_sigma) in slots.iter_mut().zip(effects).zip(priors) {
                     *slot = Some(EffectPrior {
@@ -231,7 +245,18 @@ fn config() -> impl Strategy<Value = ConfigMsg> {
                     },
                     lever_arm_m,
                     flexure_period_s,
-                    flexure: flexure.map(|(a1, a2, s)| [a1, a2, s]),
+                    flexure: [0, 1, 2].map(|k| {
+                        let (a1, a2, s) = flexure[k];
+                        match second_order[k] {
+                            (true, omega, zeta) if physical(omega, zeta, s) => [omega, zeta, s],
+                            _ => [a1, a2, s],
+                        }
+                    }),
+                    lever_arm_rate_noise: master_error_correlation_s,
+                    flexure_second_order: [0, 1, 2].map(|k| {
+                        let (on, omega, zeta) = second_order[k];
+                        on && physical(omega, zeta, flexure[k].2)
+                    }),
                     process_noise,
                     measurement_noise,
                     initial_sigma,
@@ -579,9 +604,10 @@ proptest! {
     fn config_augmentation_bytes(m in config(), aug in augmentation_bytes(), seq in any::<u16>()) {
         let mut payload = payload_of(&Message::Config(m));
         prop_assert_eq!(payload.len(), CONFIG_LEN);
-        // The augmentation's 21 bytes start 29 bytes before the payload's end (the
-        // initial delay and the correlation time follow).
-        let at = CONFIG_LEN - 29;
+        // The augmentation's 21 bytes start 34 bytes before the payload's end (the
+        // initial delay, the correlation time, the flexure kinds and the lever-arm rate
+        // noise follow).
+        let at = CONFIG_LEN - 34;
         payload[at..at + 21].copy_from_slice(&aug);
         let frame = raw_frame(0x03, seq, &payload);
         let mut d = Decoder::new();

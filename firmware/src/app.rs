@@ -608,7 +608,7 @@ mod tests {
 
     use super::*;
     use flexcal_core::engine::{EngineConfig, InitialSigma, Matching, MeasurementNoise};
-    use flexcal_core::flexure::{ArAxis, FlexureModel};
+    use flexcal_core::flexure::{ArAxis, AxisModel, FlexureModel};
     use flexcal_core::link::{EndMsg, ImuSampleMsg, MasterNavMsg, Receiver};
     use flexcal_core::model::{LeverBending, ProcessNoise};
     use nalgebra::Vector3;
@@ -641,11 +641,11 @@ mod tests {
             bending: LeverBending::UniformArc,
             dynamic_lever_arm: true,
             flexure: FlexureModel {
-                axes: [ArAxis {
+                axes: [AxisModel::Ar(ArAxis {
                     a1: 0.5,
                     a2: 0.0,
                     sigma_rad: 1e-5,
-                }; 3],
+                }); 3],
                 period_s: DT as f32,
             },
             process_noise: ProcessNoise {

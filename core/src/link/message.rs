@@ -18,7 +18,7 @@ use crate::engine::{
     Counters, EffectEstimate, EngineConfig, Estimates, ImuIncrement, InitialSigma, MasterNav,
     Matching, MeasurementNoise,
 };
-use crate::flexure::{ArAxis, FlexureModel};
+use crate::flexure::{ArAxis, AxisModel, FlexureModel, SecondOrderAxis};
 use crate::kalman::Health;
 use crate::link::codec::DecoderCounters;
 use crate::link::receiver::LinkCounters;
@@ -36,7 +36,7 @@ pub const ESTIMATES_LEN: usize = 106;
 /// Payload length of [`StatusMsg`].
 pub const STATUS_LEN: usize = 128;
 /// Payload length of [`ConfigMsg`].
-pub const CONFIG_LEN: usize = 203;
+pub const CONFIG_LEN: usize = 208;
 /// Payload length of [`EndMsg`].
 pub const END_LEN: usize = 8;
 /// Payload length of [`EffectsMsg`].
@@ -326,7 +326,7 @@ pub enum EffectsError {
     UnusedSlot,
 }
 
-/// The engine configuration (type `0x03`, 203-byte payload): every field of
+/// The engine configuration (type `0x03`, 208-byte payload): every field of
 /// [`EngineConfig`], the augmentation included, plus how often the board reports. The
 /// board (re)creates its engine from it, so it runs exactly the model the desktop chose
 /// (a layout recommended by `flexcal diagnose` too), with no code change.
@@ -350,8 +350,15 @@ pub struct ConfigMsg {
     pub lever_arm_m: [f32; 3],
     /// Period the flexure model's coefficients belong to (s), > 0.
     pub flexure_period_s: f64,
-    /// Per-axis flexure AR(2) model `[a1, a2, σ]` (σ in rad, ≥ 0).
+    /// Per-axis flexure model: `[a1, a2, σ]` of an AR(2) (σ in rad, ≥ 0), or, where
+    /// `flexure_second_order` says so, `[ω rad/s, ζ, σ_θ rad]` of a second-order
+    /// Gauss-Markov axis (ω > 0, ζ > 0, σ_θ ≥ 0).
     pub flexure: [[f32; 3]; 3],
+    /// Which flexure axes are second-order Gauss-Markov (`flexcal_core::flexure`).
+    pub flexure_second_order: [bool; 3],
+    /// σ of the master's rate noise the lever arm carries into the velocity matching
+    /// (rad/s, ≥ 0; [`MeasurementNoise::lever_arm_rate_radps`]).
+    pub lever_arm_rate_noise: f32,
     /// Process noise `[accel VRW, gyro ARW, gyro bias RW, accel bias RW, misalignment RW]`
     /// (units of [`ProcessNoise`], each ≥ 0).
     pub process_noise: [f32; 5],
@@ -403,7 +410,15 @@ impl ConfigMsg {
             bending: c.bending,
             lever_arm_m: to_f32s(&c.lever_arm_m),
             flexure_period_s: c.flexure.period_s.to_f64(),
-            flexure: c.flexure.axes.map(|a| [f(a.a1), f(a.a2), f(a.sigma_rad)]),
+            flexure: c.flexure.axes.map(|a| match a {
+                AxisModel::Ar(a) => [f(a.a1), f(a.a2), f(a.sigma_rad)],
+                AxisModel::SecondOrder(g) => [f(g.omega_rad_s), f(g.damping), f(g.sigma_rad)],
+            }),
+            flexure_second_order: c
+                .flexure
+                .axes
+                .map(|a| matches!(a, AxisModel::SecondOrder(_))),
+            lever_arm_rate_noise: f(m.lever_arm_rate_radps),
             process_noise: [
                 f(p.accel_vrw),
                 f(p.gyro_arw),
@@ -471,11 +486,7 @@ impl ConfigMsg {
             bending: self.bending,
             dynamic_lever_arm: self.dynamic_lever_arm,
             flexure: FlexureModel {
-                axes: self.flexure.map(|[a1, a2, sigma]| ArAxis {
-                    a1: c(a1),
-                    a2: c(a2),
-                    sigma_rad: c(sigma),
-                }),
+                axes: self.flexure_axes(),
                 period_s: T::of(self.flexure_period_s),
             },
             process_noise: ProcessNoise {
@@ -489,6 +500,7 @@ impl ConfigMsg {
                 velocity_mps: from_f32s(&mv),
                 attitude_rad: from_f32s(&ma),
                 rate_radps: from_f32s(&mrate),
+                lever_arm_rate_radps: c(self.lever_arm_rate_noise),
             },
             initial_sigma: InitialSigma {
                 velocity_mps: c(sv),
@@ -503,6 +515,47 @@ impl ConfigMsg {
             augmentation: self.augmentation(),
             initial_delay_s: f64::from(self.initial_delay_s),
         }
+    }
+
+    /// The flexure axes in precision `T`. Exact for every message that passes
+    /// [`Message::validate`]; a second-order axis whose values that check refuses is
+    /// carried as an AR(2) with no dynamics and no noise (a flexure of zero).
+    fn flexure_axes<T: Real>(&self) -> [AxisModel<T>; 3] {
+        let c = |x: f32| T::of(f64::from(x));
+        let mut axes = [AxisModel::Ar(ArAxis {
+            a1: T::zero(),
+            a2: T::zero(),
+            sigma_rad: T::zero(),
+        }); 3];
+        for ((slot, [a, b, sigma]), second_order) in axes
+            .iter_mut()
+            .zip(self.flexure)
+            .zip(self.flexure_second_order)
+        {
+            if second_order {
+                let period = T::of(self.flexure_period_s);
+                if let Some(g) = SecondOrderAxis::new(c(a), c(b), c(sigma), period) {
+                    *slot = AxisModel::SecondOrder(g);
+                }
+            } else {
+                *slot = AxisModel::Ar(ArAxis {
+                    a1: c(a),
+                    a2: c(b),
+                    sigma_rad: c(sigma),
+                });
+            }
+        }
+        axes
+    }
+
+    fn flexure_kinds(&self) -> u8 {
+        let mut bits = 0;
+        for (k, on) in self.flexure_second_order.iter().enumerate() {
+            if *on {
+                bits |= 1 << k;
+            }
+        }
+        bits
     }
 
     fn flags(&self) -> u8 {
@@ -534,6 +587,7 @@ impl ConfigMsg {
                 self.variance_floor,
                 self.initial_delay_s,
                 self.master_error_correlation_s,
+                self.lever_arm_rate_noise,
             ])
     }
 }
@@ -771,9 +825,24 @@ impl Message {
                 if !finite {
                     return Err(PayloadError::NonFinite);
                 }
-                let sigmas_ok = m.flexure.iter().all(|[_, _, s]| *s >= 0.0)
+                let second_order_ok = m
+                    .flexure
+                    .iter()
+                    .zip(m.flexure_second_order)
+                    .all(|([w, z, sigma], on)| {
+                        !on || SecondOrderAxis::new(
+                            f64::from(*w),
+                            f64::from(*z),
+                            f64::from(*sigma),
+                            m.flexure_period_s,
+                        )
+                        .is_some()
+                    });
+                let sigmas_ok = second_order_ok
+                    && m.flexure.iter().all(|[_, _, s]| *s >= 0.0)
                     && m.process_noise.iter().all(|x| *x >= 0.0)
                     && m.measurement_noise.iter().flatten().all(|x| *x >= 0.0)
+                    && m.lever_arm_rate_noise >= 0.0
                     && m.initial_sigma.iter().all(|x| *x >= 0.0);
                 if !(sigmas_ok
                     && m.filter_period_s > 0.0
@@ -903,6 +972,8 @@ impl Message {
                 }
                 w.f32(m.initial_delay_s)?;
                 w.f32(m.master_error_correlation_s)?;
+                w.u8(m.flexure_kinds())?;
+                w.f32(m.lever_arm_rate_noise)?;
             }
             Message::End(m) => {
                 w.f64(m.t)?;
@@ -1038,6 +1109,12 @@ impl Message {
                 }
                 let initial_delay_s = r.f32()?;
                 let master_error_correlation_s = r.f32()?;
+                let kinds = r.u8()?;
+                if kinds & !0b111 != 0 {
+                    return Some(Err(PayloadError::BadValue));
+                }
+                let flexure_second_order = [0, 1, 2].map(|k| kinds & (1 << k) != 0);
+                let lever_arm_rate_noise = r.f32()?;
                 Message::Config(ConfigMsg {
                     t,
                     filter_period_s,
@@ -1051,6 +1128,8 @@ impl Message {
                     lever_arm_m,
                     flexure_period_s,
                     flexure,
+                    flexure_second_order,
+                    lever_arm_rate_noise,
                     process_noise,
                     measurement_noise,
                     initial_sigma,
@@ -1593,7 +1672,9 @@ mod tests {
             bending: LeverBending::UniformArc,
             lever_arm_m: [10.0, -2.5, 0.75],
             flexure_period_s: 0.01,
-            flexure: [[1.9, -0.95, 1e-5], [1.8, -0.9, 2e-5], [0.5, 0.0, 3e-5]],
+            flexure: [[1.9, -0.95, 1e-5], [1.8, -0.9, 2e-5], [1.5, 0.3, 3e-5]],
+            flexure_second_order: [false, false, true],
+            lever_arm_rate_noise: 5e-4,
             process_noise: [1e-4, 1e-5, 1e-9, 1e-7, 0.0],
             measurement_noise: [[0.01, 0.02, 0.03], [1e-4, 2e-4, 3e-4], [2e-4, 4e-4, 6e-4]],
             initial_sigma: [0.1, 0.0174, 4.8e-6, 9.8e-3, 1e-3],
@@ -1653,7 +1734,9 @@ mod tests {
         assert!(b[185..195].iter().all(|x| *x == 0), "unused slots are zero");
         assert_eq!(f32_at(&b, 195), 0.02, "initial delay");
         assert_eq!(f32_at(&b, 199), 45.0, "master error correlation time");
-        assert_eq!(b[203], 0xAA, "nothing written past the payload");
+        assert_eq!(b[203], 0b100, "axis z second-order Gauss-Markov");
+        assert_eq!(f32_at(&b, 204), 5e-4, "lever-arm rate noise");
+        assert_eq!(b[208], 0xAA, "nothing written past the payload");
         let back = Message::read_payload(MessageKind::Config, &b[..n]).unwrap();
         assert_eq!(back, Message::Config(m));
 
@@ -1676,6 +1759,15 @@ mod tests {
         let mut x = b;
         x[42..46].copy_from_slice(&f32::NAN.to_le_bytes());
         assert_eq!(read(&x[..n]), Err(PayloadError::NonFinite));
+        let mut x = b;
+        x[203] = 0b1000; // an axis that does not exist
+        assert_eq!(read(&x[..n]), Err(PayloadError::BadValue));
+        let mut x = b;
+        x[66..70].copy_from_slice(&0.0f32.to_le_bytes()); // second-order axis z, ζ = 0
+        assert_eq!(read(&x[..n]), Err(PayloadError::BadValue));
+        let mut x = b;
+        x[203] = 0b110; // axis y second-order too: its a2 = −0.9 is no damping ratio
+        assert_eq!(read(&x[..n]), Err(PayloadError::BadValue));
         assert_eq!(read(&b[..n - 1]), Err(PayloadError::BadLength));
     }
 
@@ -1758,7 +1850,10 @@ mod tests {
             assert_eq!(b.prior_sigma, p);
         }
         assert_eq!(e.filter_period_s, 0.01);
-        assert_eq!(e.flexure.axes[1].a2, -0.9);
+        assert!(matches!(e.flexure.axes[1], AxisModel::Ar(a) if a.a2 == -0.9));
+        assert!(
+            matches!(e.flexure.axes[2], AxisModel::SecondOrder(g) if g.omega_rad_s == 1.5 && g.damping == 0.3)
+        );
         assert_eq!(e.bending, LeverBending::UniformArc);
         assert!(e.dynamic_lever_arm && !e.matching.attitude);
         let mut back = ConfigMsg::from_engine(&e, 10, 100);

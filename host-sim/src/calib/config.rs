@@ -7,7 +7,7 @@ use crate::sim::{self, FlexureSpec, Scenario};
 use flexcal_core::augment::{AugmentError, Augmentation, Effect, MAX_EFFECTS};
 use flexcal_core::engine::{EngineConfig, InitialSigma, Matching, MeasurementNoise};
 
-use flexcal_core::flexure::{ArAxis, FlexureModel};
+use flexcal_core::flexure::{ArAxis, AxisModel, FlexureModel, SecondOrderAxis};
 use flexcal_core::model::{LeverBending, ProcessNoise};
 use flexcal_core::real::Real;
 use nalgebra::Vector3;
@@ -76,6 +76,11 @@ pub struct CalibConfig {
     /// Per-axis flexure models `[a1, a2, σ_rad]` (slave x, y, z); when present they
     /// replace `flexure_ar` and `flexure_sigma_rad`. Identification fills them in.
     pub flexure_axes: Option<[[f64; 3]; 3]>,
+    /// Per-axis second-order Gauss-Markov flexure `[ω rad/s, ζ, σ_θ rad]` (slave x, y,
+    /// z), sampled exactly at the filter period (`flexcal_core::flexure`); when present
+    /// it replaces the AR models. The model learner writes it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub flexure_gauss_markov: Option<[[f64; 3]; 3]>,
     /// Gyro angle random walk (rad/√s).
     pub gyro_arw_rad_rs: f64,
     /// Accelerometer velocity random walk (m/s/√s).
@@ -98,6 +103,13 @@ pub struct CalibConfig {
     /// `gyro_arw_rad_rs`.
     #[serde(deserialize_with = "per_axis")]
     pub rate_noise_radps: [f64; 3],
+    /// σ of the master's rate noise as the lever arm carries it into the velocity
+    /// matching (rad/s, ≥ 0). Absent: the RMS of `rate_noise_radps`. Apart because what
+    /// the rate matching's noise holds beyond the master's own does not move the
+    /// master's lever-arm velocity (`flexcal_core::engine::MeasurementNoise`); the model
+    /// learner sets it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lever_arm_rate_noise_radps: Option<f64>,
     /// Initial σ of the velocity error (m/s).
     pub initial_velocity_mps: f64,
     /// Initial σ of the misalignment (rad).
@@ -157,6 +169,7 @@ impl CalibConfig {
             flexure_sigma_rad: 1e-4,
             identify_flexure: true,
             flexure_axes: None,
+            flexure_gauss_markov: None,
             gyro_arw_rad_rs: 1e-5,
             accel_vrw_mps_rs: 1e-4,
             gyro_bias_rw: 0.0,
@@ -165,6 +178,7 @@ impl CalibConfig {
             velocity_noise_mps: [0.01; 3],
             attitude_noise_rad: [1e-4; 3],
             rate_noise_radps: [1e-4; 3],
+            lever_arm_rate_noise_radps: None,
             initial_velocity_mps: 0.1,
             initial_misalignment_rad: 1f64.to_radians(),
             initial_gyro_bias_radps: 1.0 * sim::DEG_PER_H,
@@ -322,6 +336,23 @@ impl CalibConfig {
                 return Err(format!("`{k}` must be a positive number, got {v}"));
             }
         }
+        if let Some(v) = self.lever_arm_rate_noise_radps {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(format!(
+                    "`lever_arm_rate_noise_radps` must be a number ≥ 0 rad/s, got {v}"
+                ));
+            }
+        }
+        if let Some(axes) = self.flexure_gauss_markov {
+            for (k, [w, z, sigma]) in axes.iter().enumerate() {
+                if SecondOrderAxis::new(*w, *z, *sigma, self.filter_period_s).is_none() {
+                    return Err(format!(
+                        "`flexure_gauss_markov` axis {k}: [{w}, {z}, {sigma}] is no damped mode \
+                         at the filter period (ω > 0 rad/s, ζ > 0, σ ≥ 0 rad)"
+                    ));
+                }
+            }
+        }
         if let Some(m) = self.mounting_estimate_rad {
             let norm = m.iter().map(|v| v * v).sum::<f64>().sqrt();
             // A half turn may come out of the logarithm a rounding above π.
@@ -371,8 +402,12 @@ impl CalibConfig {
         Ok(aug)
     }
 
-    /// The AR order of each axis's flexure model (trailing zero coefficients dropped).
+    /// The AR order of each axis's flexure model (trailing zero coefficients dropped; a
+    /// second-order Gauss-Markov axis has two states, order 2).
     pub fn flexure_orders(&self) -> [usize; 3] {
+        if self.flexure_gauss_markov.is_some() {
+            return [2; 3];
+        }
         let uniform = [
             self.flexure_ar[0],
             self.flexure_ar[1],
@@ -389,6 +424,21 @@ impl CalibConfig {
                     0
                 }
             })
+    }
+
+    /// σ of the master's rate noise the lever arm carries into the velocity matching
+    /// (rad/s): `lever_arm_rate_noise_radps`, else the RMS of the rate noise over the
+    /// axes (exactly the rate noise when the axes are alike).
+    pub fn lever_arm_rate_noise(&self) -> f64 {
+        if let Some(v) = self.lever_arm_rate_noise_radps {
+            return v;
+        }
+        let [x, y, z] = self.rate_noise_radps;
+        if x == y && y == z {
+            x
+        } else {
+            ((x * x + y * y + z * z) / 3.0).sqrt()
+        }
     }
 
     /// The matching channels as flags.
@@ -411,11 +461,22 @@ impl CalibConfig {
             self.flexure_sigma_rad,
         ];
         let per_axis = self.flexure_axes.unwrap_or([uniform; 3]);
-        let axes = per_axis.map(|[a1, a2, sigma]| ArAxis {
-            a1: c(a1),
-            a2: c(a2),
-            sigma_rad: c(sigma),
+        let ar = per_axis.map(|[a1, a2, sigma]| {
+            AxisModel::Ar(ArAxis {
+                a1: c(a1),
+                a2: c(a2),
+                sigma_rad: c(sigma),
+            })
         });
+        // A second-order axis `validate` refuses keeps the AR model.
+        let axes = match self.flexure_gauss_markov {
+            Some(gm) => [0, 1, 2].map(|k| {
+                let [w, z, sigma] = gm[k];
+                SecondOrderAxis::new(c(w), c(z), c(sigma), c(self.filter_period_s))
+                    .map_or(ar[k], AxisModel::SecondOrder)
+            }),
+            None => ar,
+        };
         EngineConfig {
             filter_period_s: self.filter_period_s,
             matching: self.matching_flags(),
@@ -440,6 +501,7 @@ impl CalibConfig {
                 velocity_mps: Vector3::from(self.velocity_noise_mps.map(c)),
                 attitude_rad: Vector3::from(self.attitude_noise_rad.map(c)),
                 rate_radps: Vector3::from(self.rate_noise_radps.map(c)),
+                lever_arm_rate_radps: c(self.lever_arm_rate_noise()),
             },
             initial_sigma: InitialSigma {
                 velocity_mps: c(self.initial_velocity_mps),

@@ -49,6 +49,7 @@ pub fn choose_flexure(rec: &crate::recording::Recording, cfg: &mut CalibConfig) 
     }
     match identify_flexure(rec, cfg) {
         Ok(id) => {
+            cfg.flexure_gauss_markov = None;
             cfg.flexure_axes = Some(
                 id.axes
                     .clone()

@@ -79,6 +79,9 @@ pub enum Param {
     AttitudeNoise(usize),
     /// The master's angular-rate noise on a slave body axis (rad/s).
     RateNoise(usize),
+    /// The master's rate noise as the lever arm carries it into the velocity matching
+    /// (rad/s); zero: none.
+    LeverArmRateNoise,
     /// Gyro angle random walk (rad/√s).
     GyroArw,
     /// Accelerometer velocity random walk (m/s/√s).
@@ -121,6 +124,7 @@ impl Param {
             Param::VelocityNoise(k) => format!("velocity_noise_mps_{}", enu(k)),
             Param::AttitudeNoise(k) => format!("attitude_noise_rad_{}", ax(k)),
             Param::RateNoise(k) => format!("rate_noise_radps_{}", ax(k)),
+            Param::LeverArmRateNoise => "lever_arm_rate_noise_radps".into(),
             Param::GyroArw => "gyro_arw_rad_rs".into(),
             Param::AccelVrw => "accel_vrw_mps_rs".into(),
             Param::GyroBiasRw => "gyro_bias_rw".into(),
@@ -146,6 +150,7 @@ impl Param {
             Param::GyroBiasRw
                 | Param::AccelBiasRw
                 | Param::MisalignmentRw
+                | Param::LeverArmRateNoise
                 | Param::MasterAttitudeError
                 | Param::MasterVelocityError
         )
@@ -165,6 +170,7 @@ impl Param {
             Param::VelocityNoise(_) => (1e-5, 10.0),
             Param::AttitudeNoise(_) => (1e-7, 0.1),
             Param::RateNoise(_) => (1e-7, 0.1),
+            Param::LeverArmRateNoise => (0.0, 0.1),
             Param::GyroArw => (1e-8, 1e-1),
             Param::AccelVrw => (1e-6, 1.0),
             Param::GyroBiasRw => (0.0, 1e-3),
@@ -207,8 +213,16 @@ impl ModelParams {
         let uniform = [cfg.flexure_ar[0], cfg.flexure_ar[1], cfg.flexure_sigma_rad];
         let axes = cfg.flexure_axes.unwrap_or([uniform; 3]);
         let t = cfg.filter_period_s;
+        let flexure = match cfg.flexure_gauss_markov {
+            Some(gm) => gm.map(|[omega_rad_s, damping, sigma_rad]| FlexureAxis {
+                omega_rad_s,
+                damping,
+                sigma_rad,
+            }),
+            None => axes.map(|a| FlexureAxis::from_ar(a, t).unwrap_or(DEFAULT_FLEXURE)),
+        };
         Self {
-            flexure: axes.map(|a| FlexureAxis::from_ar(a, t).unwrap_or(DEFAULT_FLEXURE)),
+            flexure,
             prior_floor: [
                 cfg.initial_gyro_bias_radps,
                 cfg.initial_accel_bias_mps2,
@@ -218,12 +232,18 @@ impl ModelParams {
         }
     }
 
-    /// The configuration these values make: the flexure per axis as AR(2) at the
-    /// filter period, identification off (the model is learned).
+    /// The configuration these values make: the flexure per axis as the second-order
+    /// Gauss-Markov process it is, sampled exactly (`flexcal_core::flexure`; the AR(2)
+    /// with its poles overstates θ's one-step variance 1.6× and carries the mean rate
+    /// over the interval where the rate matching sees the rate at its end),
+    /// identification off (the model is learned).
     pub fn config(&self) -> CalibConfig {
         let mut c = self.base.clone();
-        let t = c.filter_period_s;
-        c.flexure_axes = Some(self.flexure.map(|f| f.ar(t)));
+        c.flexure_axes = None;
+        c.flexure_gauss_markov = Some(
+            self.flexure
+                .map(|f| [f.omega_rad_s, f.damping, f.sigma_rad]),
+        );
         c.identify_flexure = false;
         c.tune = false;
         c
@@ -237,6 +257,7 @@ impl ModelParams {
             Param::VelocityNoise(k) => axis(&c.velocity_noise_mps, k),
             Param::AttitudeNoise(k) => axis(&c.attitude_noise_rad, k),
             Param::RateNoise(k) => axis(&c.rate_noise_radps, k),
+            Param::LeverArmRateNoise => c.lever_arm_rate_noise(),
             Param::GyroArw => c.gyro_arw_rad_rs,
             Param::AccelVrw => c.accel_vrw_mps_rs,
             Param::GyroBiasRw => c.gyro_bias_rw,
@@ -293,6 +314,7 @@ impl ModelParams {
             Param::VelocityNoise(k) => set_axis(&mut c.velocity_noise_mps, k, v),
             Param::AttitudeNoise(k) => set_axis(&mut c.attitude_noise_rad, k, v),
             Param::RateNoise(k) => set_axis(&mut c.rate_noise_radps, k, v),
+            Param::LeverArmRateNoise => c.lever_arm_rate_noise_radps = Some(v),
             Param::GyroArw => c.gyro_arw_rad_rs = v,
             Param::AccelVrw => c.accel_vrw_mps_rs = v,
             Param::GyroBiasRw => c.gyro_bias_rw = v,

@@ -405,6 +405,35 @@ impl<'a> Search<'a> {
         }
     }
 
+    /// A quantity that starts at a value another one implies and may be much smaller
+    /// or absent: the current value against zero and 10⁻³, 10⁻², 10⁻¹ of it, the best
+    /// kept, then (if it is not zero) a line.
+    pub fn shrinking(&mut self, p: Param, h: f64) {
+        let start = self.model.get(p);
+        if start > 0.0 {
+            let sizes = [0.0, 1e-3, 1e-2, 1e-1].map(|k| k * start);
+            let models: Vec<ModelParams> =
+                sizes.iter().map(|&v| self.trial(&[p], |_, _| v)).collect();
+            let results = self.eval_all(&models);
+            let before = self.current.total;
+            if let Some((m, l)) = models
+                .into_iter()
+                .zip(results)
+                .filter_map(|(m, l)| l.map(|l| (m, l)))
+                .min_by(|a, b| a.1.total.total_cmp(&b.1.total))
+            {
+                if l.total < self.current.total {
+                    self.model = m;
+                    self.current = l;
+                }
+            }
+            self.record(p, start, None, before - self.current.total);
+        }
+        if self.model.get(p) > 0.0 {
+            self.line(&[p], h);
+        }
+    }
+
     /// A process noise that may be absent: the ladder, then (if it is not zero) a line.
     pub fn vanishing(&mut self, p: Param, scale: f64, h: f64) {
         self.ladder(p, scale);

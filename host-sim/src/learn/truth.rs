@@ -58,6 +58,10 @@ pub fn drawn_values(sc: &Scenario) -> Vec<(Param, f64)> {
                 }
             }
         }
+        let rate = m.rate_noise_deg_h * DEG_PER_H;
+        if rate > 0.0 && m.gives_rate {
+            v.push((Param::LeverArmRateNoise, rate));
+        }
     }
     let axes = match sc.flexure {
         FlexureSpec::GaussMarkov {
@@ -130,6 +134,7 @@ pub fn kind(p: Param) -> &'static str {
         | Param::InitialGyroBias
         | Param::InitialAccelBias
         | Param::InitialMisalignment => "other",
+        Param::LeverArmRateNoise => "master rate noise in the lever-arm velocity",
     }
 }
 

@@ -300,21 +300,41 @@ fn model_section(s: &mut String, r: &ReportInput<'_>, res: &CalibResult) {
         c.bending
     );
     let uniform = [c.flexure_ar[0], c.flexure_ar[1], c.flexure_sigma_rad];
-    let axes = c.flexure_axes.unwrap_or([uniform; 3]);
-    let flex: Vec<String> = axes
-        .iter()
-        .zip(["x", "y", "z"])
-        .map(|([a1, a2, sg], n)| {
-            format!(
-                "{n}: a = [{a1:.6}, {a2:.6}], σ {} {}",
-                sig3(sg * ANGLE.scale),
-                ANGLE.name
-            )
-        })
-        .collect();
+    let (kind, flex): (&str, Vec<String>) = match c.flexure_gauss_markov {
+        Some(gm) => (
+            "second-order Gauss-Markov model",
+            gm.iter()
+                .zip(["x", "y", "z"])
+                .map(|([w, z, sg], n)| {
+                    format!(
+                        "{n}: ω {} rad/s, ζ {}, σ {} {}",
+                        sig3(*w),
+                        sig3(*z),
+                        sig3(sg * ANGLE.scale),
+                        ANGLE.name
+                    )
+                })
+                .collect(),
+        ),
+        None => (
+            "AR model",
+            c.flexure_axes
+                .unwrap_or([uniform; 3])
+                .iter()
+                .zip(["x", "y", "z"])
+                .map(|([a1, a2, sg], n)| {
+                    format!(
+                        "{n}: a = [{a1:.6}, {a2:.6}], σ {} {}",
+                        sig3(sg * ANGLE.scale),
+                        ANGLE.name
+                    )
+                })
+                .collect(),
+        ),
+    };
     let _ = writeln!(
         s,
-        "- flexure AR model ({}): {}",
+        "- flexure {kind} ({}): {}",
         r.flexure_source,
         flex.join("; ")
     );

@@ -43,8 +43,11 @@ pub fn summary_json(
             "dynamic_lever_arm": cfg.dynamic_lever_arm,
             "flexure_ar_order": cfg.flexure_orders().into_iter().max().unwrap_or(0),
             "flexure_ar_orders": cfg.flexure_orders(),
-            "flexure_models": cfg.flexure_axes.unwrap_or([[cfg.flexure_ar[0], cfg.flexure_ar[1], cfg.flexure_sigma_rad]; 3])
-                .map(|[a1, a2, s]| json!({"coefficients": [a1, a2], "sigma_rad": s})),
+            "flexure_models": match cfg.flexure_gauss_markov {
+                Some(gm) => gm.map(|[w, z, s]| json!({"kind": "second_order_gauss_markov", "omega_rad_s": w, "damping": z, "sigma_rad": s})),
+                None => cfg.flexure_axes.unwrap_or([[cfg.flexure_ar[0], cfg.flexure_ar[1], cfg.flexure_sigma_rad]; 3])
+                    .map(|[a1, a2, s]| json!({"kind": "ar", "coefficients": [a1, a2], "sigma_rad": s})),
+            },
             "flexure_source": flexure_source,
             "lever_arm_bending": cfg.bending,
         },
