@@ -190,13 +190,84 @@ fn add_row<T: Real, const N: usize>(acc: &mut [T; N], f: T, ps: &[T], k: usize) 
     let (head, tail) = acc.split_at_mut(k.min(N));
     axpy(head, f, ps.get(k * N..).unwrap_or(&[]));
     // Row k from the diagonal on: one element per column, N apart.
-    let mut idx = k * N + k;
-    for e in tail.iter_mut() {
-        if let Some(&p) = ps.get(idx) {
-            *e += f * p;
+    axpy_strided::<T, N>(tail, f, ps.get(k * N + k..).unwrap_or(&[]));
+}
+
+/// `dst[m] += a · src[m N]` for every `m` of `dst` (`src` holds at least
+/// `(dst.len() − 1) N + 1` elements; beyond what it holds, `dst` is left): a row of the
+/// stored triangle, which is one element per column. Four at a time, each group's reach
+/// checked once, so the loop is loads and multiply-adds (the plain loop checked every
+/// index and cost twice the contiguous one). Each element's arithmetic is the plain loop's.
+#[inline(always)]
+fn axpy_strided<T: Real, const N: usize>(dst: &mut [T], a: T, src: &[T]) {
+    let mut s = src;
+    let mut d4 = dst.chunks_exact_mut(4);
+    for d in &mut d4 {
+        let w = s.get(..=3 * N).unwrap_or(&[]);
+        if let ([d0, d1, d2, d3], Some(&p0), Some(&p1), Some(&p2), Some(&p3)) =
+            (d, w.first(), w.get(N), w.get(2 * N), w.get(3 * N))
+        {
+            *d0 += a * p0;
+            *d1 += a * p1;
+            *d2 += a * p2;
+            *d3 += a * p3;
         }
-        idx += N;
+        s = s.get(4 * N..).unwrap_or(&[]);
     }
+    for (d, &p) in d4.into_remainder().iter_mut().zip(s.iter().step_by(N)) {
+        *d += a * p;
+    }
+}
+
+/// `P ← P − k phᵀ` on the upper triangle `ps` (column-major, N×N): column `j`, rows
+/// `i ≤ j`, `P(i, j) += (−ph_j) k_i`; each diagonal clamped to `floor` once written.
+/// Returns how many were clamped. Two columns at a time, sharing the loads of `k` and
+/// the loop: per column, setting up a loop cost about as much as its multiply-adds.
+#[inline(always)]
+fn rank_one_downdate<T: Real, const N: usize>(
+    ps: &mut [T],
+    ph: &[T; N],
+    k: &[T; N],
+    floor: T,
+) -> u32 {
+    let mut clamped = 0;
+    let mut clamp = |d: Option<&mut T>| {
+        if let Some(d) = d {
+            if *d < floor {
+                *d = floor;
+                clamped += 1;
+            }
+        }
+    };
+    let at = |v: &[T; N], i: usize| v.get(i).copied().unwrap_or_else(T::zero);
+    let mut pairs = ps.chunks_exact_mut(2 * N);
+    let mut j = 0;
+    for pair in &mut pairs {
+        let (a, b) = pair.split_at_mut(N);
+        let (na, nb) = (-at(ph, j), -at(ph, j + 1));
+        // Rows 0..=j of columns j and j + 1, then row j + 1 of column j + 1.
+        let (a, b) = (
+            a.get_mut(..=j).unwrap_or(&mut []),
+            b.get_mut(..=j + 1).unwrap_or(&mut []),
+        );
+        let (b, b_last) = b.split_at_mut(b.len().saturating_sub(1));
+        for ((x, y), &ki) in a.iter_mut().zip(b.iter_mut()).zip(k.iter()) {
+            *x += na * ki;
+            *y += nb * ki;
+        }
+        if let Some(y) = b_last.first_mut() {
+            *y += nb * at(k, j + 1);
+        }
+        clamp(a.last_mut());
+        clamp(b_last.first_mut());
+        j += 2;
+    }
+    // N odd: the last column alone.
+    if let Some(col) = pairs.into_remainder().get_mut(..=j) {
+        axpy(col, -at(ph, j), k);
+        clamp(col.last_mut());
+    }
+    clamped
 }
 
 impl<T: Real, const N: usize> Kalman<T, N> {
@@ -502,33 +573,30 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// `z`, noise variance `r`, and gate `gate` in standard deviations. Works over the
     /// non-zero entries of `h` (a matching row has at most a dozen) and the stored triangle.
     pub fn update_scalar(&mut self, h: &SVector<T, N>, z: T, r: T, gate: T) -> ScalarUpdate<T> {
-        let mut hnz = [(0usize, T::zero()); N];
-        let mut n_h = 0usize;
-        for (j, (&hj, &sj)) in h
-            .as_slice()
-            .iter()
-            .zip(self.scale.as_slice().iter())
-            .enumerate()
-        {
+        // P h: row j of P times the scaled h_j = h_j s_j, over h's non-zeros (P symmetric);
+        // their columns listed (a byte each) for the sums below.
+        let mut ph = [T::zero(); N];
+        let mut nz = [0u8; N];
+        let mut n_nz = 0;
+        let ps = self.ps.as_slice();
+        let (hs, sc) = (h.as_slice(), self.scale.as_slice());
+        for (j, (&hj, &sj)) in hs.iter().zip(sc.iter()).enumerate() {
             let v = hj * sj;
             if v != T::zero() {
-                if let Some(slot) = hnz.get_mut(n_h) {
-                    *slot = (j, v);
+                add_row(&mut ph, v, ps, j);
+                if let Some(c) = nz.get_mut(n_nz) {
+                    *c = j as u8;
                 }
-                n_h += 1;
+                n_nz += 1;
             }
         }
-        let hnz = hnz.get(..n_h).unwrap_or(&[]);
-        // P h: row j of P times h_j, summed (P symmetric).
-        let mut ph = [T::zero(); N];
-        let ps = self.ps.as_slice();
-        for &(j, hj) in hnz {
-            add_row(&mut ph, hj, ps, j);
-        }
         let (mut hph, mut hx) = (T::zero(), T::zero());
-        for &(j, hj) in hnz {
-            hph += hj * ph.get(j).copied().unwrap_or_else(T::zero);
-            hx += hj * vget(&self.xs, j);
+        for &j in nz.get(..n_nz).unwrap_or(&[]) {
+            let j = usize::from(j);
+            let at = |v: &[T]| v.get(j).copied().unwrap_or_else(T::zero);
+            let v = at(hs) * at(sc);
+            hph += v * at(&ph);
+            hx += v * at(self.xs.as_slice());
         }
         let s = hph + r;
         let innovation = z - hx;
@@ -560,22 +628,14 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         self.health.gated_streak = 0;
         // K = P h / s.
         let inv_s = T::one() / s;
-        let mut k = [T::zero(); N];
-        for ((ki, &phi), x) in k
-            .iter_mut()
-            .zip(ph.iter())
-            .zip(self.xs.as_mut_slice().iter_mut())
-        {
-            *ki = phi * inv_s;
-            *x += *ki * innovation;
+        let k: [T; N] =
+            core::array::from_fn(|i| ph.get(i).copied().unwrap_or_else(T::zero) * inv_s);
+        for (x, &ki) in self.xs.as_mut_slice().iter_mut().zip(k.iter()) {
+            *x += ki * innovation;
         }
-        // P ← P − K (P h)ᵀ on the upper triangle: column j, rows i ≤ j.
-        let ps = self.ps.as_mut_slice();
-        for (j, &phj) in ph.iter().enumerate() {
-            let col = ps.get_mut(j * N..j * N + j + 1).unwrap_or(&mut []);
-            axpy(col, -phj, &k);
-        }
-        self.clamp_variances();
+        // P ← P − K (P h)ᵀ on the upper triangle, the diagonal clamped to the floor.
+        let clamped = rank_one_downdate::<T, N>(self.ps.as_mut_slice(), &ph, &k, self.floor);
+        self.health.variance_clamped += clamped;
         self.health.updates += 1;
         ScalarUpdate {
             innovation,
