@@ -219,6 +219,47 @@ fn axpy_strided<T: Real, const N: usize>(dst: &mut [T], a: T, src: &[T]) {
     }
 }
 
+/// Rows of Φ that [`Kalman::predict`] propagates together when they share their columns.
+const GROUP: usize = 6;
+
+/// `acc_d[m] += f_d · P(k, m)` for the `GROUP` rows `d` and every `m`, from the upper
+/// triangle `ps` (column-major, N×N): row k of P gathered once, then each element of it
+/// multiplied into all the rows (each element's arithmetic is [`add_row`]'s).
+#[inline(always)]
+fn add_row_group<T: Real, const N: usize>(
+    acc: &mut [[T; N]; GROUP],
+    f: &[T; GROUP],
+    ps: &[T],
+    k: usize,
+) {
+    let mut row = [T::zero(); N];
+    let (head, tail) = row.split_at_mut(k.min(N));
+    if let Some(src) = ps.get(k * N..k * N + head.len()) {
+        head.copy_from_slice(src);
+    }
+    for (e, &p) in tail
+        .iter_mut()
+        .zip(ps.get(k * N + k..).unwrap_or(&[]).iter().step_by(N))
+    {
+        *e = p;
+    }
+    let [a0, a1, a2, a3, a4, a5] = acc;
+    let [f0, f1, f2, f3, f4, f5] = *f;
+    let rows = a0.iter_mut().zip(a1.iter_mut()).zip(a2.iter_mut());
+    let rows = rows
+        .zip(a3.iter_mut())
+        .zip(a4.iter_mut())
+        .zip(a5.iter_mut());
+    for ((((((e0, e1), e2), e3), e4), e5), &p) in rows.zip(row.iter()) {
+        *e0 += f0 * p;
+        *e1 += f1 * p;
+        *e2 += f2 * p;
+        *e3 += f3 * p;
+        *e4 += f4 * p;
+        *e5 += f5 * p;
+    }
+}
+
 /// `P ← P − k phᵀ` on the upper triangle `ps` (column-major, N×N): column `j`, rows
 /// `i ≤ j`, `P(i, j) += (−ph_j) k_i`; each diagonal clamped to `floor` once written.
 /// Returns how many were clamped. Two columns at a time, sharing the loads of `k` and
@@ -426,11 +467,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         let mut x_new = [T::zero(); R];
         let ps = self.ps.as_slice();
         let mut check = T::zero();
-        for (r, (brow, (frow, xn))) in b
-            .iter_mut()
-            .zip(fs.iter_mut().zip(x_new.iter_mut()))
-            .enumerate()
-        {
+        for (r, (frow, xn)) in fs.iter_mut().zip(x_new.iter_mut()).enumerate() {
             let (Some(&i), Some(vals), Some(cols), Some(&n)) = (
                 phi.index.get(r),
                 phi.values.get(r),
@@ -444,9 +481,46 @@ impl<T: Real, const N: usize> Kalman<T, N> {
                 let k = usize::from(k);
                 *f = at(vals, k) * at(sc, k) * inv_i;
                 *xn += *f * at(self.xs.as_slice(), k);
-                add_row(brow, *f, ps, k);
             }
-            check += *xn;
+        }
+        // B row by row, over each row's columns ascending; six rows with the same columns
+        // (δv and ψ's) in one pass over each row of P, which reads it once for all six.
+        let cols_of = |r: usize| {
+            let n = phi.count.get(r).copied().unwrap_or(0);
+            phi.cols.get(r).and_then(|c| c.get(..n)).unwrap_or(&[])
+        };
+        let mut r = 0;
+        while r < R {
+            let cols = cols_of(r);
+            let six = (r + 1..r + GROUP).all(|q| q < R && cols_of(q) == cols);
+            let group = b
+                .get_mut(r..r + GROUP)
+                .and_then(|g| <&mut [[T; N]; GROUP]>::try_from(g).ok());
+            match (six, group) {
+                (true, Some(rows)) => {
+                    for (c, &k) in cols.iter().enumerate() {
+                        let f: [T; GROUP] = core::array::from_fn(|d| {
+                            fs.get(r + d)
+                                .and_then(|row| row.get(c))
+                                .copied()
+                                .unwrap_or_else(T::zero)
+                        });
+                        add_row_group(rows, &f, ps, usize::from(k));
+                    }
+                    r += GROUP;
+                }
+                _ => {
+                    if let (Some(brow), Some(frow)) = (b.get_mut(r), fs.get(r)) {
+                        for (&k, &f) in cols.iter().zip(frow.iter()) {
+                            add_row(brow, f, ps, usize::from(k));
+                        }
+                    }
+                    r += 1;
+                }
+            }
+        }
+        for (brow, &xn) in b.iter().zip(x_new.iter()) {
+            check += xn;
             for &v in brow.iter() {
                 check += v;
             }
