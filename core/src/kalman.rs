@@ -86,6 +86,12 @@ impl<T: Real, const N: usize, const R: usize> Transition<T, N, R> {
 
     /// Row `r` from `row` (dense), its non-zero columns listed.
     pub fn set_row(&mut self, r: usize, row: &[T; N]) {
+        self.write_row(r, |dst| *dst = *row);
+    }
+
+    /// Row `r` written in place: zeroed, then `fill` sets its non-zero elements; they are
+    /// listed. (The error model builds Φ's rows this way, without a row-sized temporary.)
+    pub fn write_row(&mut self, r: usize, fill: impl FnOnce(&mut [T; N])) {
         let (Some(dst), Some(cols), Some(count)) = (
             self.values.get_mut(r),
             self.cols.get_mut(r),
@@ -93,9 +99,10 @@ impl<T: Real, const N: usize, const R: usize> Transition<T, N, R> {
         ) else {
             return;
         };
-        *dst = *row;
+        dst.fill(T::zero());
+        fill(dst);
         let mut n = 0;
-        for (j, &v) in row.iter().enumerate() {
+        for (j, &v) in dst.iter().enumerate() {
             if v != T::zero() {
                 if let Some(c) = cols.get_mut(n) {
                     *c = j as u8;
@@ -214,9 +221,28 @@ fn axpy_strided<T: Real, const N: usize>(dst: &mut [T], a: T, src: &[T]) {
         }
         s = s.get(4 * N..).unwrap_or(&[]);
     }
-    for (d, &p) in d4.into_remainder().iter_mut().zip(s.iter().step_by(N)) {
-        *d += a * p;
+    for d in d4.into_remainder() {
+        if let Some(&p) = s.first() {
+            *d += a * p;
+        }
+        s = s.get(N..).unwrap_or(&[]);
     }
+}
+
+/// `acc + v[0] + v[1] + …`, added in that order, four per loop turn (only the sum's
+/// finiteness is used: a step with a non-finite result is refused).
+#[inline(always)]
+fn sum_into<T: Real>(mut acc: T, v: &[T]) -> T {
+    let mut v4 = v.chunks_exact(4);
+    for c in &mut v4 {
+        if let [a, b, c, d] = c {
+            acc = acc + *a + *b + *c + *d;
+        }
+    }
+    for &x in v4.remainder() {
+        acc += x;
+    }
+    acc
 }
 
 /// Rows of Φ that [`Kalman::predict`] propagates together when they share their columns.
@@ -521,9 +547,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         }
         for (brow, &xn) in b.iter().zip(x_new.iter()) {
             check += xn;
-            for &v in brow.iter() {
-                check += v;
-            }
+            check = sum_into(check, brow);
         }
         // P_aa = B Φ_s,aᵀ on the upper triangle (pairs r ≤ q), with Q_s added.
         let mut paa = [[T::zero(); R]; R];
@@ -647,28 +671,34 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// `z`, noise variance `r`, and gate `gate` in standard deviations. Works over the
     /// non-zero entries of `h` (a matching row has at most a dozen) and the stored triangle.
     pub fn update_scalar(&mut self, h: &SVector<T, N>, z: T, r: T, gate: T) -> ScalarUpdate<T> {
-        // P h: row j of P times the scaled h_j = h_j s_j, over h's non-zeros (P symmetric);
-        // their columns listed (a byte each) for the sums below.
-        let mut ph = [T::zero(); N];
+        // h's non-zeros (scaled h_j = h_j s_j), their columns listed (a byte each).
+        let (hs, sc) = (h.as_slice(), self.scale.as_slice());
         let mut nz = [0u8; N];
         let mut n_nz = 0;
-        let ps = self.ps.as_slice();
-        let (hs, sc) = (h.as_slice(), self.scale.as_slice());
         for (j, (&hj, &sj)) in hs.iter().zip(sc.iter()).enumerate() {
-            let v = hj * sj;
-            if v != T::zero() {
-                add_row(&mut ph, v, ps, j);
+            if hj * sj != T::zero() {
                 if let Some(c) = nz.get_mut(n_nz) {
                     *c = j as u8;
                 }
                 n_nz += 1;
             }
         }
+        let nz = nz.get(..n_nz).unwrap_or(&[]);
+        let scaled_h = |j: usize| {
+            hs.get(j).copied().unwrap_or_else(T::zero) * sc.get(j).copied().unwrap_or_else(T::zero)
+        };
+        // P h: row j of P times the scaled h_j, summed over the non-zeros (P symmetric).
+        let mut ph = [T::zero(); N];
+        let ps = self.ps.as_slice();
+        for &j in nz {
+            let j = usize::from(j);
+            add_row(&mut ph, scaled_h(j), ps, j);
+        }
         let (mut hph, mut hx) = (T::zero(), T::zero());
-        for &j in nz.get(..n_nz).unwrap_or(&[]) {
+        for &j in nz {
             let j = usize::from(j);
             let at = |v: &[T]| v.get(j).copied().unwrap_or_else(T::zero);
-            let v = at(hs) * at(sc);
+            let v = scaled_h(j);
             hph += v * at(&ph);
             hx += v * at(self.xs.as_slice());
         }
@@ -702,10 +732,14 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         self.health.gated_streak = 0;
         // K = P h / s.
         let inv_s = T::one() / s;
-        let k: [T; N] =
-            core::array::from_fn(|i| ph.get(i).copied().unwrap_or_else(T::zero) * inv_s);
-        for (x, &ki) in self.xs.as_mut_slice().iter_mut().zip(k.iter()) {
-            *x += ki * innovation;
+        let mut k = [T::zero(); N];
+        for ((ki, &phi), x) in k
+            .iter_mut()
+            .zip(ph.iter())
+            .zip(self.xs.as_mut_slice().iter_mut())
+        {
+            *ki = phi * inv_s;
+            *x += *ki * innovation;
         }
         // P ← P − K (P h)ᵀ on the upper triangle, the diagonal clamped to the floor.
         let clamped = rank_one_downdate::<T, N>(self.ps.as_mut_slice(), &ph, &k, self.floor);
