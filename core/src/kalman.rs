@@ -200,13 +200,19 @@ fn add_row<T: Real, const N: usize>(acc: &mut [T; N], f: T, ps: &[T], k: usize) 
     axpy_strided::<T, N>(tail, f, ps.get(k * N + k..).unwrap_or(&[]));
 }
 
-/// `dst[m] += a · src[m N]` for every `m` of `dst` (`src` holds at least
-/// `(dst.len() − 1) N + 1` elements; beyond what it holds, `dst` is left): a row of the
-/// stored triangle, which is one element per column. Four at a time, each group's reach
-/// checked once, so the loop is loads and multiply-adds (the plain loop checked every
-/// index and cost twice the contiguous one). Each element's arithmetic is the plain loop's.
+/// `dst[m] += a · src[m N]` for every `m` of `dst`: a row of the stored triangle, which
+/// is one element per column ([`each_strided`]).
 #[inline(always)]
 fn axpy_strided<T: Real, const N: usize>(dst: &mut [T], a: T, src: &[T]) {
+    each_strided::<T, N>(dst, src, |d, p| *d += a * p);
+}
+
+/// `op(&mut dst[m], src[m N])` for every `m` of `dst` (`src` holds at least
+/// `(dst.len() − 1) N + 1` elements; beyond what it holds, `dst` is left). Four at a time,
+/// each group's reach checked once, so the loop is loads and the operation (the plain loop
+/// checked every index and cost twice the contiguous one).
+#[inline(always)]
+fn each_strided<T: Real, const N: usize>(dst: &mut [T], src: &[T], mut op: impl FnMut(&mut T, T)) {
     let mut s = src;
     let mut d4 = dst.chunks_exact_mut(4);
     for d in &mut d4 {
@@ -214,16 +220,16 @@ fn axpy_strided<T: Real, const N: usize>(dst: &mut [T], a: T, src: &[T]) {
         if let ([d0, d1, d2, d3], Some(&p0), Some(&p1), Some(&p2), Some(&p3)) =
             (d, w.first(), w.get(N), w.get(2 * N), w.get(3 * N))
         {
-            *d0 += a * p0;
-            *d1 += a * p1;
-            *d2 += a * p2;
-            *d3 += a * p3;
+            op(d0, p0);
+            op(d1, p1);
+            op(d2, p2);
+            op(d3, p3);
         }
         s = s.get(4 * N..).unwrap_or(&[]);
     }
     for d in d4.into_remainder() {
         if let Some(&p) = s.first() {
-            *d += a * p;
+            op(d, p);
         }
         s = s.get(N..).unwrap_or(&[]);
     }
@@ -263,12 +269,7 @@ fn add_row_group<T: Real, const N: usize>(
     if let Some(src) = ps.get(k * N..k * N + head.len()) {
         head.copy_from_slice(src);
     }
-    for (e, &p) in tail
-        .iter_mut()
-        .zip(ps.get(k * N + k..).unwrap_or(&[]).iter().step_by(N))
-    {
-        *e = p;
-    }
+    each_strided::<T, N>(tail, ps.get(k * N + k..).unwrap_or(&[]), |e, p| *e = p);
     let [a0, a1, a2, a3, a4, a5] = acc;
     let [f0, f1, f2, f3, f4, f5] = *f;
     let rows = a0.iter_mut().zip(a1.iter_mut()).zip(a2.iter_mut());
@@ -288,8 +289,10 @@ fn add_row_group<T: Real, const N: usize>(
 
 /// `P ← P − k phᵀ` on the upper triangle `ps` (column-major, N×N): column `j`, rows
 /// `i ≤ j`, `P(i, j) += (−ph_j) k_i`; each diagonal clamped to `floor` once written.
-/// Returns how many were clamped. Two columns at a time, sharing the loads of `k` and
-/// the loop: per column, setting up a loop cost about as much as its multiply-adds.
+/// Returns how many were clamped. Four columns at a time, sharing the loads of `k` and the
+/// loop (per column, setting up a loop cost about as much as its multiply-adds): their
+/// rows 0..=j together, then the three rows of the staggered top; the last `N mod 4`
+/// columns one by one.
 #[inline(always)]
 fn rank_one_downdate<T: Real, const N: usize>(
     ps: &mut [T],
@@ -307,32 +310,46 @@ fn rank_one_downdate<T: Real, const N: usize>(
         }
     };
     let at = |v: &[T; N], i: usize| v.get(i).copied().unwrap_or_else(T::zero);
-    let mut pairs = ps.chunks_exact_mut(2 * N);
+    let mut quads = ps.chunks_exact_mut(4 * N);
     let mut j = 0;
-    for pair in &mut pairs {
-        let (a, b) = pair.split_at_mut(N);
-        let (na, nb) = (-at(ph, j), -at(ph, j + 1));
-        // Rows 0..=j of columns j and j + 1, then row j + 1 of column j + 1.
-        let (a, b) = (
-            a.get_mut(..=j).unwrap_or(&mut []),
-            b.get_mut(..=j + 1).unwrap_or(&mut []),
-        );
-        let (b, b_last) = b.split_at_mut(b.len().saturating_sub(1));
-        for ((x, y), &ki) in a.iter_mut().zip(b.iter_mut()).zip(k.iter()) {
-            *x += na * ki;
-            *y += nb * ki;
+    for quad in &mut quads {
+        let (c0, rest) = quad.split_at_mut(N);
+        let (c1, rest) = rest.split_at_mut(N);
+        let (c2, c3) = rest.split_at_mut(N);
+        let (n0, n1, n2, n3) = (-at(ph, j), -at(ph, j + 1), -at(ph, j + 2), -at(ph, j + 3));
+        // Rows 0..=j of the four columns; `t*` are the rows below, from j + 1 on.
+        let (h0, _) = c0.split_at_mut((j + 1).min(N));
+        let (h1, t1) = c1.split_at_mut((j + 1).min(N));
+        let (h2, t2) = c2.split_at_mut((j + 1).min(N));
+        let (h3, t3) = c3.split_at_mut((j + 1).min(N));
+        let rows = h0.iter_mut().zip(h1.iter_mut()).zip(h2.iter_mut());
+        for (((x0, x1), x2), (x3, &ki)) in rows.zip(h3.iter_mut().zip(k.iter())) {
+            *x0 += n0 * ki;
+            *x1 += n1 * ki;
+            *x2 += n2 * ki;
+            *x3 += n3 * ki;
         }
-        if let Some(y) = b_last.first_mut() {
-            *y += nb * at(k, j + 1);
+        if let ([y1, ..], [y2, z2, ..], [y3, z3, w3, ..]) = (t1, t2, t3) {
+            let (k1, k2, k3) = (at(k, j + 1), at(k, j + 2), at(k, j + 3));
+            *y1 += n1 * k1;
+            *y2 += n2 * k1;
+            *y3 += n3 * k1;
+            *z2 += n2 * k2;
+            *z3 += n3 * k2;
+            *w3 += n3 * k3;
+            clamp(Some(y1));
+            clamp(Some(z2));
+            clamp(Some(w3));
         }
-        clamp(a.last_mut());
-        clamp(b_last.first_mut());
-        j += 2;
+        clamp(h0.last_mut());
+        j += 4;
     }
-    // N odd: the last column alone.
-    if let Some(col) = pairs.into_remainder().get_mut(..=j) {
-        axpy(col, -at(ph, j), k);
-        clamp(col.last_mut());
+    for col in quads.into_remainder().chunks_exact_mut(N) {
+        if let Some(col) = col.get_mut(..=j) {
+            axpy(col, -at(ph, j), k);
+            clamp(col.last_mut());
+        }
+        j += 1;
     }
     clamped
 }
