@@ -235,6 +235,65 @@ fn each_strided<T: Real, const N: usize>(dst: &mut [T], src: &[T], mut op: impl 
     }
 }
 
+/// `dst[m N] = src[m]` for every `m` of `src` (as far as `dst` reaches): a row of the
+/// stored triangle written, four at a time like [`each_strided`].
+#[inline(always)]
+fn store_strided<T: Real, const N: usize>(dst: &mut [T], src: &[T]) {
+    let mut d = dst;
+    let mut s4 = src.chunks_exact(4);
+    for s in &mut s4 {
+        let w = d.get_mut(..=3 * N).unwrap_or(&mut []);
+        if let ([p0, p1, p2, p3], Some(w0)) = (s, w.first_mut()) {
+            *w0 = *p0;
+            if let Some(w1) = w.get_mut(N) {
+                *w1 = *p1;
+            }
+            if let Some(w2) = w.get_mut(2 * N) {
+                *w2 = *p2;
+            }
+            if let Some(w3) = w.get_mut(3 * N) {
+                *w3 = *p3;
+            }
+        }
+        d = d.get_mut(4 * N..).unwrap_or(&mut []);
+    }
+    for &p in s4.remainder() {
+        if let Some(e) = d.first_mut() {
+            *e = p;
+        }
+        d = d.get_mut(N..).unwrap_or(&mut []);
+    }
+}
+
+/// The gain `k_i = ph_i / s` (given `inv_s = 1 / s`) and the state step
+/// `x_i += k_i ν`, four elements per loop turn (each element's arithmetic the plain loop's).
+#[inline(always)]
+fn gain_step<T: Real>(k: &mut [T], x: &mut [T], ph: &[T], inv_s: T, innovation: T) {
+    let mut k4 = k.chunks_exact_mut(4);
+    let mut x4 = x.chunks_exact_mut(4);
+    let mut p4 = ph.chunks_exact(4);
+    for ((kc, xc), pc) in (&mut k4).zip(&mut x4).zip(&mut p4) {
+        if let ([k0, k1, k2, k3], [x0, x1, x2, x3], [p0, p1, p2, p3]) = (kc, xc, pc) {
+            *k0 = *p0 * inv_s;
+            *k1 = *p1 * inv_s;
+            *k2 = *p2 * inv_s;
+            *k3 = *p3 * inv_s;
+            *x0 += *k0 * innovation;
+            *x1 += *k1 * innovation;
+            *x2 += *k2 * innovation;
+            *x3 += *k3 * innovation;
+        }
+    }
+    let rest = k4
+        .into_remainder()
+        .iter_mut()
+        .zip(x4.into_remainder().iter_mut());
+    for ((ki, xi), &pi) in rest.zip(p4.remainder().iter()) {
+        *ki = pi * inv_s;
+        *xi += *ki * innovation;
+    }
+}
+
 /// `acc + v[0] + v[1] + …`, added in that order, four per loop turn (only the sum's
 /// finiteness is used: a step with a non-finite result is refused).
 #[inline(always)]
@@ -641,28 +700,24 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             self.health.non_finite += 1;
             return;
         }
-        // Write back: active rows against static columns, the active block, the rest's Q.
+        // Write back: the active rows whole from B (their static columns are final), then
+        // the active block from P_aa over B's values there, then the rest's Q.
         let ps = self.ps.as_mut_slice();
-        for (r, (brow, &xn)) in b.iter().zip(x_new.iter()).enumerate() {
-            let Some(&i) = phi.index.get(r) else { continue };
+        for (brow, (&xn, &i)) in b.iter().zip(x_new.iter().zip(phi.index.iter())) {
             if let Some(x) = self.xs.get_mut(i) {
                 *x = xn;
             }
-            for (j, (&v, &a)) in brow.iter().zip(active.iter()).enumerate() {
-                if !a {
-                    if let Some(e) = ps.get_mut(upper::<N>(i, j)) {
-                        *e = v;
-                    }
-                }
+            // Row i of P: columns j < i are the top of stored column i (contiguous), j ≥ i
+            // row i of the stored triangle (one element per column).
+            let (left, right) = brow.split_at(i.min(N));
+            if let Some(dst) = ps.get_mut(i * N..i * N + left.len()) {
+                dst.copy_from_slice(left);
             }
-            for (c, &v) in paa
-                .get(r)
-                .map_or(&[][..], |row| &row[..])
-                .iter()
-                .enumerate()
-                .skip(r)
-            {
-                if let Some(e) = phi.index.get(c).and_then(|&j| ps.get_mut(upper::<N>(i, j))) {
+            store_strided::<T, N>(ps.get_mut(i * N + i..).unwrap_or(&mut []), right);
+        }
+        for (r, (row, &i)) in paa.iter().zip(phi.index.iter()).enumerate() {
+            for (&v, &j) in row.iter().zip(phi.index.iter()).skip(r) {
+                if let Some(e) = ps.get_mut(upper::<N>(i, j)) {
                     *e = v;
                 }
             }
@@ -750,14 +805,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         // K = P h / s.
         let inv_s = T::one() / s;
         let mut k = [T::zero(); N];
-        for ((ki, &phi), x) in k
-            .iter_mut()
-            .zip(ph.iter())
-            .zip(self.xs.as_mut_slice().iter_mut())
-        {
-            *ki = phi * inv_s;
-            *x += *ki * innovation;
-        }
+        gain_step(&mut k, self.xs.as_mut_slice(), &ph, inv_s, innovation);
         // P ← P − K (P h)ᵀ on the upper triangle, the diagonal clamped to the floor.
         let clamped = rank_one_downdate::<T, N>(self.ps.as_mut_slice(), &ph, &k, self.floor);
         self.health.variance_clamped += clamped;
