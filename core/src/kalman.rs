@@ -86,12 +86,31 @@ impl<T: Real, const N: usize, const R: usize> Transition<T, N, R> {
 
     /// Row `r` from `row` (dense), its non-zero columns listed.
     pub fn set_row(&mut self, r: usize, row: &[T; N]) {
-        self.write_row(r, |dst| *dst = *row);
+        let (Some(dst), Some(cols), Some(count)) = (
+            self.values.get_mut(r),
+            self.cols.get_mut(r),
+            self.count.get_mut(r),
+        ) else {
+            return;
+        };
+        *dst = *row;
+        let mut n = 0;
+        for (j, &v) in row.iter().enumerate() {
+            if v != T::zero() {
+                if let Some(c) = cols.get_mut(n) {
+                    *c = j as u8;
+                }
+                n += 1;
+            }
+        }
+        *count = n;
     }
 
-    /// Row `r` written in place: zeroed, then `fill` sets its non-zero elements; they are
-    /// listed. (The error model builds Φ's rows this way, without a row-sized temporary.)
-    pub fn write_row(&mut self, r: usize, fill: impl FnOnce(&mut [T; N])) {
+    /// Row `r` written in place, zero except at the columns `at` (ascending, distinct),
+    /// where it is `value(j)`; the non-zero ones are listed. The same row as
+    /// [`Transition::set_row`] of the dense row, without a row-sized temporary or a scan of
+    /// all `N` columns (the error model builds Φ's rows this way).
+    pub fn set_row_at(&mut self, r: usize, at: &[usize], mut value: impl FnMut(usize) -> T) {
         let (Some(dst), Some(cols), Some(count)) = (
             self.values.get_mut(r),
             self.cols.get_mut(r),
@@ -100,14 +119,17 @@ impl<T: Real, const N: usize, const R: usize> Transition<T, N, R> {
             return;
         };
         dst.fill(T::zero());
-        fill(dst);
         let mut n = 0;
-        for (j, &v) in dst.iter().enumerate() {
-            if v != T::zero() {
-                if let Some(c) = cols.get_mut(n) {
-                    *c = j as u8;
+        for &j in at {
+            let v = value(j);
+            if let Some(e) = dst.get_mut(j) {
+                *e = v;
+                if v != T::zero() {
+                    if let Some(c) = cols.get_mut(n) {
+                        *c = j as u8;
+                    }
+                    n += 1;
                 }
-                n += 1;
             }
         }
         *count = n;

@@ -242,16 +242,9 @@ pub fn transition_into<T: Real, const S: usize>(
     }
     let (half, sixth) = (T::of(0.5), T::of(1.0 / 6.0));
     for i in 0..DYN {
-        phi.write_row(i, |row| {
-            for &j in cols {
-                let id = if i == j { T::one() } else { T::zero() };
-                if let Some(e) = row.get_mut(j) {
-                    *e = id
-                        + mat::get(&ft, i, j)
-                        + mat::get(&f2, i, j) * half
-                        + mat::get(&f3, i, j) * sixth;
-                }
-            }
+        phi.set_row_at(i, cols, |j| {
+            let id = if i == j { T::one() } else { T::zero() };
+            id + mat::get(&ft, i, j) + mat::get(&f2, i, j) * half + mat::get(&f3, i, j) * sixth
         });
     }
     // The flexure rows: θ_k (row DYN + k) and θ̇_k (row DYN + 3 + k) of the AR(2) model.
@@ -259,13 +252,9 @@ pub fn transition_into<T: Real, const S: usize>(
         let a = ar.transition(flex.period_s);
         let (th, thd) = (TH + axis, THD + axis);
         for (r, row) in [(DYN + axis, 0), (DYN + 3 + axis, 1)] {
-            phi.write_row(r, |dense| {
-                if let Some(e) = dense.get_mut(th) {
-                    *e = mat::get(&a, row, 0);
-                }
-                if let Some(e) = dense.get_mut(thd) {
-                    *e = mat::get(&a, row, 1);
-                }
+            phi.set_row_at(r, &[th, thd], |j| {
+                let col = if j == th { 0 } else { 1 };
+                mat::get(&a, row, col)
             });
         }
     }
