@@ -974,4 +974,86 @@ mod tests {
         assert_eq!(kf.health.non_finite, 2);
         assert_eq!(kf.covariance(), Matrix2::identity());
     }
+
+    /// A symmetric positive definite 9 × 9 covariance with unequal scales and every
+    /// element non-zero: `A Aᵀ + diag`, `A` filled from a fixed sequence.
+    fn p0_nine() -> nalgebra::SMatrix<f64, 9, 9> {
+        let a = nalgebra::SMatrix::<f64, 9, 9>::from_fn(|i, j| {
+            (((i * 7 + j * 3) % 11) as f64 - 5.0) * 0.1 * (1.0 + i as f64)
+        });
+        a * a.transpose() + nalgebra::SMatrix::<f64, 9, 9>::from_diagonal_element(0.5)
+    }
+
+    #[test]
+    fn scalar_update_on_nine_states_equals_the_dense_formula() {
+        // Nine states: two groups of four columns and one alone in the downdate, h with
+        // zeros (a sparse row) and non-zeros on both sides of the diagonal.
+        let p0 = p0_nine();
+        let mut kf = Kalman::<f64, 9>::new(&p0, 1e-12);
+        let h = nalgebra::SVector::<f64, 9>::from_column_slice(&[
+            0.0, 1.0, 0.0, 0.0, -0.5, 0.0, 2.0, 0.0, 0.3,
+        ]);
+        let (z, r) = (0.7, 0.2);
+        let u = kf.update_scalar(&h, z, r, 1e6);
+        assert!(u.accepted);
+        let ph = p0 * h;
+        let s = h.dot(&ph) + r;
+        let k = ph / s;
+        let x = k * z;
+        let p = p0 - k * ph.transpose();
+        // Rounding only: relative to the matrices' size (entries up to ~10²).
+        assert!((kf.state() - x).norm() < 1e-12 * x.norm());
+        assert!((kf.covariance() - p).norm() < 1e-12 * p.norm());
+        let ps = kf.scaled_covariance();
+        assert_eq!(ps, ps.transpose());
+    }
+
+    #[test]
+    fn predict_with_six_rows_sharing_their_columns_equals_dense_propagation() {
+        // Rows 0–5 share their columns (propagated together), row 6 (state 8) has its own;
+        // a Q pair between an active and a static state.
+        let p0 = p0_nine();
+        let mut kf = Kalman::<f64, 9>::new(&p0, 1e-12);
+        kf.update_scalar(
+            &nalgebra::SVector::<f64, 9>::from_column_slice(&[
+                1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0,
+            ]),
+            1.0,
+            0.5,
+            1e6,
+        );
+        let (x, p) = (kf.state(), kf.covariance());
+        let mut phi = Transition::<f64, 9, 7>::new([0, 1, 2, 3, 4, 5, 8]);
+        for r in 0..6 {
+            let mut row = [0.0; 9];
+            for (j, e) in row.iter_mut().enumerate() {
+                if j < 6 || j == 7 {
+                    *e = if j == r {
+                        1.0
+                    } else {
+                        0.01 * (1 + r + 2 * j) as f64
+                    };
+                }
+            }
+            phi.set_row(r, &row);
+        }
+        phi.set_row_at(6, &[6, 8], |j| if j == 6 { 0.2 } else { 0.9 });
+        let q = Noise::<f64, 9, 1> {
+            diag: [0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08, 0.09],
+            pairs: [(8, 6, 0.004)],
+        };
+        kf.predict(&phi, &q);
+        let dense = nalgebra::SMatrix::<f64, 9, 9>::from_fn(|i, j| phi.get(i, j));
+        let mut qd =
+            nalgebra::SMatrix::<f64, 9, 9>::from_diagonal(&nalgebra::SVector::from(q.diag));
+        for (i, j, v) in q.pairs {
+            qd[(i, j)] = v;
+            qd[(j, i)] = v;
+        }
+        let (x1, p1) = (dense * x, dense * p * dense.transpose() + qd);
+        assert!((kf.state() - x1).norm() < 1e-12 * x1.norm());
+        assert!((kf.covariance() - p1).norm() < 1e-12 * p1.norm());
+        let ps = kf.scaled_covariance();
+        assert_eq!(ps, ps.transpose());
+    }
 }
