@@ -822,7 +822,15 @@ impl<T: Real, const S: usize> Engine<T, S> {
             pos: nav.pos,
         };
         let model_phase = probe::enter(Phase::Model);
-        let phi = model::transition::<T, S>(&means, &self.cfg.flexure, &self.cfg.augmentation, dtt);
+        // Φ written in place (returned by value, it was copied once more per update).
+        let mut phi = model::Phi::<T, S>::new(model::PHI_ROWS);
+        model::transition_into(
+            &mut phi,
+            &means,
+            &self.cfg.flexure,
+            &self.cfg.augmentation,
+            dtt,
+        );
         let mut q = model::process_noise::<T, S>(&self.cfg.process_noise, &self.cfg.flexure, dtt);
         if self.frozen {
             // Frozen quantities take no process noise either (their random walks stop).

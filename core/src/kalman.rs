@@ -106,6 +106,35 @@ impl<T: Real, const N: usize, const R: usize> Transition<T, N, R> {
         *count = n;
     }
 
+    /// Row `r` written in place, zero except at the columns `at` (ascending, distinct),
+    /// where it is `value(j)`; the non-zero ones are listed. The same row as
+    /// [`Transition::set_row`] of the dense row, without a row-sized temporary or a scan of
+    /// all `N` columns (the error model builds Φ's rows this way).
+    pub fn set_row_at(&mut self, r: usize, at: &[usize], mut value: impl FnMut(usize) -> T) {
+        let (Some(dst), Some(cols), Some(count)) = (
+            self.values.get_mut(r),
+            self.cols.get_mut(r),
+            self.count.get_mut(r),
+        ) else {
+            return;
+        };
+        dst.fill(T::zero());
+        let mut n = 0;
+        for &j in at {
+            let v = value(j);
+            if let Some(e) = dst.get_mut(j) {
+                *e = v;
+                if v != T::zero() {
+                    if let Some(c) = cols.get_mut(n) {
+                        *c = j as u8;
+                    }
+                    n += 1;
+                }
+            }
+        }
+        *count = n;
+    }
+
     /// Element `(i, j)` of Φ.
     pub fn get(&self, i: usize, j: usize) -> T {
         match self.index.iter().position(|&k| k == i) {
@@ -190,13 +219,220 @@ fn add_row<T: Real, const N: usize>(acc: &mut [T; N], f: T, ps: &[T], k: usize) 
     let (head, tail) = acc.split_at_mut(k.min(N));
     axpy(head, f, ps.get(k * N..).unwrap_or(&[]));
     // Row k from the diagonal on: one element per column, N apart.
-    let mut idx = k * N + k;
-    for e in tail.iter_mut() {
-        if let Some(&p) = ps.get(idx) {
-            *e += f * p;
+    axpy_strided::<T, N>(tail, f, ps.get(k * N + k..).unwrap_or(&[]));
+}
+
+/// `dst[m] += a · src[m N]` for every `m` of `dst`: a row of the stored triangle, which
+/// is one element per column ([`each_strided`]).
+#[inline(always)]
+fn axpy_strided<T: Real, const N: usize>(dst: &mut [T], a: T, src: &[T]) {
+    each_strided::<T, N>(dst, src, |d, p| *d += a * p);
+}
+
+/// `op(&mut dst[m], src[m N])` for every `m` of `dst` (`src` holds at least
+/// `(dst.len() − 1) N + 1` elements; beyond what it holds, `dst` is left). Four at a time,
+/// each group's reach checked once, so the loop is loads and the operation (the plain loop
+/// checked every index and cost twice the contiguous one).
+#[inline(always)]
+fn each_strided<T: Real, const N: usize>(dst: &mut [T], src: &[T], mut op: impl FnMut(&mut T, T)) {
+    let mut s = src;
+    let mut d4 = dst.chunks_exact_mut(4);
+    for d in &mut d4 {
+        let w = s.get(..=3 * N).unwrap_or(&[]);
+        if let ([d0, d1, d2, d3], Some(&p0), Some(&p1), Some(&p2), Some(&p3)) =
+            (d, w.first(), w.get(N), w.get(2 * N), w.get(3 * N))
+        {
+            op(d0, p0);
+            op(d1, p1);
+            op(d2, p2);
+            op(d3, p3);
         }
-        idx += N;
+        s = s.get(4 * N..).unwrap_or(&[]);
     }
+    for d in d4.into_remainder() {
+        if let Some(&p) = s.first() {
+            op(d, p);
+        }
+        s = s.get(N..).unwrap_or(&[]);
+    }
+}
+
+/// `dst[m N] = src[m]` for every `m` of `src` (as far as `dst` reaches): a row of the
+/// stored triangle written, four at a time like [`each_strided`].
+#[inline(always)]
+fn store_strided<T: Real, const N: usize>(dst: &mut [T], src: &[T]) {
+    let mut d = dst;
+    let mut s4 = src.chunks_exact(4);
+    for s in &mut s4 {
+        let w = d.get_mut(..=3 * N).unwrap_or(&mut []);
+        if let ([p0, p1, p2, p3], Some(w0)) = (s, w.first_mut()) {
+            *w0 = *p0;
+            if let Some(w1) = w.get_mut(N) {
+                *w1 = *p1;
+            }
+            if let Some(w2) = w.get_mut(2 * N) {
+                *w2 = *p2;
+            }
+            if let Some(w3) = w.get_mut(3 * N) {
+                *w3 = *p3;
+            }
+        }
+        d = d.get_mut(4 * N..).unwrap_or(&mut []);
+    }
+    for &p in s4.remainder() {
+        if let Some(e) = d.first_mut() {
+            *e = p;
+        }
+        d = d.get_mut(N..).unwrap_or(&mut []);
+    }
+}
+
+/// The gain `k_i = ph_i / s` (given `inv_s = 1 / s`) and the state step
+/// `x_i += k_i ν`, four elements per loop turn (each element's arithmetic the plain loop's).
+#[inline(always)]
+fn gain_step<T: Real>(k: &mut [T], x: &mut [T], ph: &[T], inv_s: T, innovation: T) {
+    let mut k4 = k.chunks_exact_mut(4);
+    let mut x4 = x.chunks_exact_mut(4);
+    let mut p4 = ph.chunks_exact(4);
+    for ((kc, xc), pc) in (&mut k4).zip(&mut x4).zip(&mut p4) {
+        if let ([k0, k1, k2, k3], [x0, x1, x2, x3], [p0, p1, p2, p3]) = (kc, xc, pc) {
+            *k0 = *p0 * inv_s;
+            *k1 = *p1 * inv_s;
+            *k2 = *p2 * inv_s;
+            *k3 = *p3 * inv_s;
+            *x0 += *k0 * innovation;
+            *x1 += *k1 * innovation;
+            *x2 += *k2 * innovation;
+            *x3 += *k3 * innovation;
+        }
+    }
+    let rest = k4
+        .into_remainder()
+        .iter_mut()
+        .zip(x4.into_remainder().iter_mut());
+    for ((ki, xi), &pi) in rest.zip(p4.remainder().iter()) {
+        *ki = pi * inv_s;
+        *xi += *ki * innovation;
+    }
+}
+
+/// `acc + v[0] + v[1] + …`, added in that order, four per loop turn (only the sum's
+/// finiteness is used: a step with a non-finite result is refused).
+#[inline(always)]
+fn sum_into<T: Real>(mut acc: T, v: &[T]) -> T {
+    let mut v4 = v.chunks_exact(4);
+    for c in &mut v4 {
+        if let [a, b, c, d] = c {
+            acc = acc + *a + *b + *c + *d;
+        }
+    }
+    for &x in v4.remainder() {
+        acc += x;
+    }
+    acc
+}
+
+/// Rows of Φ that [`Kalman::predict`] propagates together when they share their columns.
+const GROUP: usize = 6;
+
+/// `acc_d[m] += f_d · P(k, m)` for the `GROUP` rows `d` and every `m`, from the upper
+/// triangle `ps` (column-major, N×N): row k of P gathered once, then each element of it
+/// multiplied into all the rows (each element's arithmetic is [`add_row`]'s).
+#[inline(always)]
+fn add_row_group<T: Real, const N: usize>(
+    acc: &mut [[T; N]; GROUP],
+    f: &[T; GROUP],
+    ps: &[T],
+    k: usize,
+) {
+    let mut row = [T::zero(); N];
+    let (head, tail) = row.split_at_mut(k.min(N));
+    if let Some(src) = ps.get(k * N..k * N + head.len()) {
+        head.copy_from_slice(src);
+    }
+    each_strided::<T, N>(tail, ps.get(k * N + k..).unwrap_or(&[]), |e, p| *e = p);
+    let [a0, a1, a2, a3, a4, a5] = acc;
+    let [f0, f1, f2, f3, f4, f5] = *f;
+    let rows = a0.iter_mut().zip(a1.iter_mut()).zip(a2.iter_mut());
+    let rows = rows
+        .zip(a3.iter_mut())
+        .zip(a4.iter_mut())
+        .zip(a5.iter_mut());
+    for ((((((e0, e1), e2), e3), e4), e5), &p) in rows.zip(row.iter()) {
+        *e0 += f0 * p;
+        *e1 += f1 * p;
+        *e2 += f2 * p;
+        *e3 += f3 * p;
+        *e4 += f4 * p;
+        *e5 += f5 * p;
+    }
+}
+
+/// `P ← P − k phᵀ` on the upper triangle `ps` (column-major, N×N): column `j`, rows
+/// `i ≤ j`, `P(i, j) += (−ph_j) k_i`; each diagonal clamped to `floor` once written.
+/// Returns how many were clamped. Four columns at a time, sharing the loads of `k` and the
+/// loop (per column, setting up a loop cost about as much as its multiply-adds): their
+/// rows 0..=j together, then the three rows of the staggered top; the last `N mod 4`
+/// columns one by one.
+#[inline(always)]
+fn rank_one_downdate<T: Real, const N: usize>(
+    ps: &mut [T],
+    ph: &[T; N],
+    k: &[T; N],
+    floor: T,
+) -> u32 {
+    let mut clamped = 0;
+    let mut clamp = |d: Option<&mut T>| {
+        if let Some(d) = d {
+            if *d < floor {
+                *d = floor;
+                clamped += 1;
+            }
+        }
+    };
+    let at = |v: &[T; N], i: usize| v.get(i).copied().unwrap_or_else(T::zero);
+    let mut quads = ps.chunks_exact_mut(4 * N);
+    let mut j = 0;
+    for quad in &mut quads {
+        let (c0, rest) = quad.split_at_mut(N);
+        let (c1, rest) = rest.split_at_mut(N);
+        let (c2, c3) = rest.split_at_mut(N);
+        let (n0, n1, n2, n3) = (-at(ph, j), -at(ph, j + 1), -at(ph, j + 2), -at(ph, j + 3));
+        // Rows 0..=j of the four columns; `t*` are the rows below, from j + 1 on.
+        let (h0, _) = c0.split_at_mut((j + 1).min(N));
+        let (h1, t1) = c1.split_at_mut((j + 1).min(N));
+        let (h2, t2) = c2.split_at_mut((j + 1).min(N));
+        let (h3, t3) = c3.split_at_mut((j + 1).min(N));
+        let rows = h0.iter_mut().zip(h1.iter_mut()).zip(h2.iter_mut());
+        for (((x0, x1), x2), (x3, &ki)) in rows.zip(h3.iter_mut().zip(k.iter())) {
+            *x0 += n0 * ki;
+            *x1 += n1 * ki;
+            *x2 += n2 * ki;
+            *x3 += n3 * ki;
+        }
+        if let ([y1, ..], [y2, z2, ..], [y3, z3, w3, ..]) = (t1, t2, t3) {
+            let (k1, k2, k3) = (at(k, j + 1), at(k, j + 2), at(k, j + 3));
+            *y1 += n1 * k1;
+            *y2 += n2 * k1;
+            *y3 += n3 * k1;
+            *z2 += n2 * k2;
+            *z3 += n3 * k2;
+            *w3 += n3 * k3;
+            clamp(Some(y1));
+            clamp(Some(z2));
+            clamp(Some(w3));
+        }
+        clamp(h0.last_mut());
+        j += 4;
+    }
+    for col in quads.into_remainder().chunks_exact_mut(N) {
+        if let Some(col) = col.get_mut(..=j) {
+            axpy(col, -at(ph, j), k);
+            clamp(col.last_mut());
+        }
+        j += 1;
+    }
+    clamped
 }
 
 impl<T: Real, const N: usize> Kalman<T, N> {
@@ -355,11 +591,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         let mut x_new = [T::zero(); R];
         let ps = self.ps.as_slice();
         let mut check = T::zero();
-        for (r, (brow, (frow, xn))) in b
-            .iter_mut()
-            .zip(fs.iter_mut().zip(x_new.iter_mut()))
-            .enumerate()
-        {
+        for (r, (frow, xn)) in fs.iter_mut().zip(x_new.iter_mut()).enumerate() {
             let (Some(&i), Some(vals), Some(cols), Some(&n)) = (
                 phi.index.get(r),
                 phi.values.get(r),
@@ -373,12 +605,47 @@ impl<T: Real, const N: usize> Kalman<T, N> {
                 let k = usize::from(k);
                 *f = at(vals, k) * at(sc, k) * inv_i;
                 *xn += *f * at(self.xs.as_slice(), k);
-                add_row(brow, *f, ps, k);
             }
-            check += *xn;
-            for &v in brow.iter() {
-                check += v;
+        }
+        // B row by row, over each row's columns ascending; six rows with the same columns
+        // (δv and ψ's) in one pass over each row of P, which reads it once for all six.
+        let cols_of = |r: usize| {
+            let n = phi.count.get(r).copied().unwrap_or(0);
+            phi.cols.get(r).and_then(|c| c.get(..n)).unwrap_or(&[])
+        };
+        let mut r = 0;
+        while r < R {
+            let cols = cols_of(r);
+            let six = (r + 1..r + GROUP).all(|q| q < R && cols_of(q) == cols);
+            let group = b
+                .get_mut(r..r + GROUP)
+                .and_then(|g| <&mut [[T; N]; GROUP]>::try_from(g).ok());
+            match (six, group) {
+                (true, Some(rows)) => {
+                    for (c, &k) in cols.iter().enumerate() {
+                        let f: [T; GROUP] = core::array::from_fn(|d| {
+                            fs.get(r + d)
+                                .and_then(|row| row.get(c))
+                                .copied()
+                                .unwrap_or_else(T::zero)
+                        });
+                        add_row_group(rows, &f, ps, usize::from(k));
+                    }
+                    r += GROUP;
+                }
+                _ => {
+                    if let (Some(brow), Some(frow)) = (b.get_mut(r), fs.get(r)) {
+                        for (&k, &f) in cols.iter().zip(frow.iter()) {
+                            add_row(brow, f, ps, usize::from(k));
+                        }
+                    }
+                    r += 1;
+                }
             }
+        }
+        for (brow, &xn) in b.iter().zip(x_new.iter()) {
+            check += xn;
+            check = sum_into(check, brow);
         }
         // P_aa = B Φ_s,aᵀ on the upper triangle (pairs r ≤ q), with Q_s added.
         let mut paa = [[T::zero(); R]; R];
@@ -455,28 +722,24 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             self.health.non_finite += 1;
             return;
         }
-        // Write back: active rows against static columns, the active block, the rest's Q.
+        // Write back: the active rows whole from B (their static columns are final), then
+        // the active block from P_aa over B's values there, then the rest's Q.
         let ps = self.ps.as_mut_slice();
-        for (r, (brow, &xn)) in b.iter().zip(x_new.iter()).enumerate() {
-            let Some(&i) = phi.index.get(r) else { continue };
+        for (brow, (&xn, &i)) in b.iter().zip(x_new.iter().zip(phi.index.iter())) {
             if let Some(x) = self.xs.get_mut(i) {
                 *x = xn;
             }
-            for (j, (&v, &a)) in brow.iter().zip(active.iter()).enumerate() {
-                if !a {
-                    if let Some(e) = ps.get_mut(upper::<N>(i, j)) {
-                        *e = v;
-                    }
-                }
+            // Row i of P: columns j < i are the top of stored column i (contiguous), j ≥ i
+            // row i of the stored triangle (one element per column).
+            let (left, right) = brow.split_at(i.min(N));
+            if let Some(dst) = ps.get_mut(i * N..i * N + left.len()) {
+                dst.copy_from_slice(left);
             }
-            for (c, &v) in paa
-                .get(r)
-                .map_or(&[][..], |row| &row[..])
-                .iter()
-                .enumerate()
-                .skip(r)
-            {
-                if let Some(e) = phi.index.get(c).and_then(|&j| ps.get_mut(upper::<N>(i, j))) {
+            store_strided::<T, N>(ps.get_mut(i * N + i..).unwrap_or(&mut []), right);
+        }
+        for (r, (row, &i)) in paa.iter().zip(phi.index.iter()).enumerate() {
+            for (&v, &j) in row.iter().zip(phi.index.iter()).skip(r) {
+                if let Some(e) = ps.get_mut(upper::<N>(i, j)) {
                     *e = v;
                 }
             }
@@ -502,33 +765,36 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// `z`, noise variance `r`, and gate `gate` in standard deviations. Works over the
     /// non-zero entries of `h` (a matching row has at most a dozen) and the stored triangle.
     pub fn update_scalar(&mut self, h: &SVector<T, N>, z: T, r: T, gate: T) -> ScalarUpdate<T> {
-        let mut hnz = [(0usize, T::zero()); N];
-        let mut n_h = 0usize;
-        for (j, (&hj, &sj)) in h
-            .as_slice()
-            .iter()
-            .zip(self.scale.as_slice().iter())
-            .enumerate()
-        {
-            let v = hj * sj;
-            if v != T::zero() {
-                if let Some(slot) = hnz.get_mut(n_h) {
-                    *slot = (j, v);
+        // h's non-zeros (scaled h_j = h_j s_j), their columns listed (a byte each).
+        let (hs, sc) = (h.as_slice(), self.scale.as_slice());
+        let mut nz = [0u8; N];
+        let mut n_nz = 0;
+        for (j, (&hj, &sj)) in hs.iter().zip(sc.iter()).enumerate() {
+            if hj * sj != T::zero() {
+                if let Some(c) = nz.get_mut(n_nz) {
+                    *c = j as u8;
                 }
-                n_h += 1;
+                n_nz += 1;
             }
         }
-        let hnz = hnz.get(..n_h).unwrap_or(&[]);
-        // P h: row j of P times h_j, summed (P symmetric).
+        let nz = nz.get(..n_nz).unwrap_or(&[]);
+        let scaled_h = |j: usize| {
+            hs.get(j).copied().unwrap_or_else(T::zero) * sc.get(j).copied().unwrap_or_else(T::zero)
+        };
+        // P h: row j of P times the scaled h_j, summed over the non-zeros (P symmetric).
         let mut ph = [T::zero(); N];
         let ps = self.ps.as_slice();
-        for &(j, hj) in hnz {
-            add_row(&mut ph, hj, ps, j);
+        for &j in nz {
+            let j = usize::from(j);
+            add_row(&mut ph, scaled_h(j), ps, j);
         }
         let (mut hph, mut hx) = (T::zero(), T::zero());
-        for &(j, hj) in hnz {
-            hph += hj * ph.get(j).copied().unwrap_or_else(T::zero);
-            hx += hj * vget(&self.xs, j);
+        for &j in nz {
+            let j = usize::from(j);
+            let at = |v: &[T]| v.get(j).copied().unwrap_or_else(T::zero);
+            let v = scaled_h(j);
+            hph += v * at(&ph);
+            hx += v * at(self.xs.as_slice());
         }
         let s = hph + r;
         let innovation = z - hx;
@@ -561,21 +827,10 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         // K = P h / s.
         let inv_s = T::one() / s;
         let mut k = [T::zero(); N];
-        for ((ki, &phi), x) in k
-            .iter_mut()
-            .zip(ph.iter())
-            .zip(self.xs.as_mut_slice().iter_mut())
-        {
-            *ki = phi * inv_s;
-            *x += *ki * innovation;
-        }
-        // P ← P − K (P h)ᵀ on the upper triangle: column j, rows i ≤ j.
-        let ps = self.ps.as_mut_slice();
-        for (j, &phj) in ph.iter().enumerate() {
-            let col = ps.get_mut(j * N..j * N + j + 1).unwrap_or(&mut []);
-            axpy(col, -phj, &k);
-        }
-        self.clamp_variances();
+        gain_step(&mut k, self.xs.as_mut_slice(), &ph, inv_s, innovation);
+        // P ← P − K (P h)ᵀ on the upper triangle, the diagonal clamped to the floor.
+        let clamped = rank_one_downdate::<T, N>(self.ps.as_mut_slice(), &ph, &k, self.floor);
+        self.health.variance_clamped += clamped;
         self.health.updates += 1;
         ScalarUpdate {
             innovation,
@@ -718,5 +973,87 @@ mod tests {
         kf.predict(&phi, &q);
         assert_eq!(kf.health.non_finite, 2);
         assert_eq!(kf.covariance(), Matrix2::identity());
+    }
+
+    /// A symmetric positive definite 9 × 9 covariance with unequal scales and every
+    /// element non-zero: `A Aᵀ + diag`, `A` filled from a fixed sequence.
+    fn p0_nine() -> nalgebra::SMatrix<f64, 9, 9> {
+        let a = nalgebra::SMatrix::<f64, 9, 9>::from_fn(|i, j| {
+            (((i * 7 + j * 3) % 11) as f64 - 5.0) * 0.1 * (1.0 + i as f64)
+        });
+        a * a.transpose() + nalgebra::SMatrix::<f64, 9, 9>::from_diagonal_element(0.5)
+    }
+
+    #[test]
+    fn scalar_update_on_nine_states_equals_the_dense_formula() {
+        // Nine states: two groups of four columns and one alone in the downdate, h with
+        // zeros (a sparse row) and non-zeros on both sides of the diagonal.
+        let p0 = p0_nine();
+        let mut kf = Kalman::<f64, 9>::new(&p0, 1e-12);
+        let h = nalgebra::SVector::<f64, 9>::from_column_slice(&[
+            0.0, 1.0, 0.0, 0.0, -0.5, 0.0, 2.0, 0.0, 0.3,
+        ]);
+        let (z, r) = (0.7, 0.2);
+        let u = kf.update_scalar(&h, z, r, 1e6);
+        assert!(u.accepted);
+        let ph = p0 * h;
+        let s = h.dot(&ph) + r;
+        let k = ph / s;
+        let x = k * z;
+        let p = p0 - k * ph.transpose();
+        // Rounding only: relative to the matrices' size (entries up to ~10²).
+        assert!((kf.state() - x).norm() < 1e-12 * x.norm());
+        assert!((kf.covariance() - p).norm() < 1e-12 * p.norm());
+        let ps = kf.scaled_covariance();
+        assert_eq!(ps, ps.transpose());
+    }
+
+    #[test]
+    fn predict_with_six_rows_sharing_their_columns_equals_dense_propagation() {
+        // Rows 0–5 share their columns (propagated together), row 6 (state 8) has its own;
+        // a Q pair between an active and a static state.
+        let p0 = p0_nine();
+        let mut kf = Kalman::<f64, 9>::new(&p0, 1e-12);
+        kf.update_scalar(
+            &nalgebra::SVector::<f64, 9>::from_column_slice(&[
+                1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0,
+            ]),
+            1.0,
+            0.5,
+            1e6,
+        );
+        let (x, p) = (kf.state(), kf.covariance());
+        let mut phi = Transition::<f64, 9, 7>::new([0, 1, 2, 3, 4, 5, 8]);
+        for r in 0..6 {
+            let mut row = [0.0; 9];
+            for (j, e) in row.iter_mut().enumerate() {
+                if j < 6 || j == 7 {
+                    *e = if j == r {
+                        1.0
+                    } else {
+                        0.01 * (1 + r + 2 * j) as f64
+                    };
+                }
+            }
+            phi.set_row(r, &row);
+        }
+        phi.set_row_at(6, &[6, 8], |j| if j == 6 { 0.2 } else { 0.9 });
+        let q = Noise::<f64, 9, 1> {
+            diag: [0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08, 0.09],
+            pairs: [(8, 6, 0.004)],
+        };
+        kf.predict(&phi, &q);
+        let dense = nalgebra::SMatrix::<f64, 9, 9>::from_fn(|i, j| phi.get(i, j));
+        let mut qd =
+            nalgebra::SMatrix::<f64, 9, 9>::from_diagonal(&nalgebra::SVector::from(q.diag));
+        for (i, j, v) in q.pairs {
+            qd[(i, j)] = v;
+            qd[(j, i)] = v;
+        }
+        let (x1, p1) = (dense * x, dense * p * dense.transpose() + qd);
+        assert!((kf.state() - x1).norm() < 1e-12 * x1.norm());
+        assert!((kf.covariance() - p1).norm() < 1e-12 * p1.norm());
+        let ps = kf.scaled_covariance();
+        assert_eq!(ps, ps.transpose());
     }
 }

@@ -44,8 +44,6 @@ pub const BA: usize = 12;
 pub const TH: usize = 15;
 /// Offset of the flexure rate block.
 pub const THD: usize = 18;
-/// Number of navigation and sensor states (everything before the flexure block).
-const NAV: usize = 15;
 
 /// State vector of dimension `S` (the declared 21 states, then any augmented blocks).
 pub type StateVec<T, const S: usize = N> = SVector<T, S>;
@@ -92,27 +90,28 @@ fn put<T: Real, const R: usize, const C: usize>(
     m.fixed_view_mut::<3, 3>(r, c).copy_from(b);
 }
 
-/// Continuous-time error dynamics of the navigation and sensor states (15×15).
-pub fn nav_dynamics<T: Real>(m: &IntervalMeans<T>) -> SMatrix<T, NAV, NAV> {
-    let mut f = SMatrix::<T, NAV, NAV>::zeros();
+/// Continuous-time error dynamics of the navigation and sensor states (the 15 before the
+/// flexure block), written into `f`'s rows δv and ψ: the only rows with dynamics (those of
+/// the sensors and the misalignment are zero). Elements it does not set are left as they
+/// are (zero in a fresh matrix); no 15×15 temporary.
+fn nav_dynamics_rows<T: Real, const C: usize>(m: &IntervalMeans<T>, f: &mut SMatrix<T, DYN, C>) {
     let here = earth::Local::at(&m.pos);
     let w_ie = here.earth_rate_n();
     let w_en = here.transport_rate_n(&m.v_n);
     let d_wen_dv = here.transport_rate_jacobian();
     // δv̇ = (−[(2ω_ie+ω_en)×] + [v×] ∂ω_en/∂v) δv − C[f×] ψ + C ∇
     let fvv = -skew(&(w_ie * T::of(2.0) + w_en)) + skew(&m.v_n) * d_wen_dv;
-    put(&mut f, V, V, &fvv);
-    put(&mut f, V, PSI, &(-(m.c_b_n * skew(&m.f_b))));
-    put(&mut f, V, BA, &m.c_b_n);
+    put(f, V, V, &fvv);
+    put(f, V, PSI, &(-(m.c_b_n * skew(&m.f_b))));
+    put(f, V, BA, &m.c_b_n);
     // ψ̇ = −Cᵀ ∂ω_en/∂v δv − [ω_ib×] ψ + ε
-    put(&mut f, PSI, V, &(-(m.c_b_n.transpose() * d_wen_dv)));
-    put(&mut f, PSI, PSI, &(-skew(&m.w_ib_b)));
-    put(&mut f, PSI, BG, &Matrix3::identity());
-    f
+    put(f, PSI, V, &(-(m.c_b_n.transpose() * d_wen_dv)));
+    put(f, PSI, PSI, &(-skew(&m.w_ib_b)));
+    put(f, PSI, BG, &Matrix3::identity());
 }
 
 /// Rows of the navigation dynamics that are not zero: only δv and ψ have dynamics
-/// (`nav_dynamics`); the sensor and misalignment rows are zero.
+/// (`nav_dynamics_rows`); the sensor and misalignment rows are zero.
 const DYN: usize = 6;
 
 /// Rows of Φ that are not the identity's: δv, ψ (`DYN`) and the six flexure states.
@@ -131,13 +130,8 @@ pub fn dynamics<T: Real, const S: usize>(
     m: &IntervalMeans<T>,
     aug: &Augmentation<T>,
 ) -> SMatrix<T, DYN, S> {
-    let nav = nav_dynamics(m);
     let mut f = SMatrix::<T, DYN, S>::zeros();
-    for j in 0..NAV {
-        for i in 0..DYN {
-            mat::set(&mut f, i, j, mat::get(&nav, i, j));
-        }
-    }
+    nav_dynamics_rows(m, &mut f);
     augment::add_dynamics(&mut f, aug, (V, PSI), &m.f_b, &m.w_ib_b, &m.c_b_n);
     f
 }
@@ -153,7 +147,39 @@ pub fn transition<T: Real, const S: usize>(
     aug: &Augmentation<T>,
     t: T,
 ) -> Phi<T, S> {
-    let ft = dynamics::<T, S>(m, aug) * t;
+    let mut phi = Phi::<T, S>::new(PHI_ROWS);
+    transition_into(&mut phi, m, flex, aug, t);
+    phi
+}
+
+/// The states of Φ's rows that are not the identity's, in the order of [`Phi`]'s rows: δv
+/// and ψ, then the flexure's θ and θ̇.
+pub const PHI_ROWS: [usize; ACTIVE] = [
+    V,
+    V + 1,
+    V + 2,
+    PSI,
+    PSI + 1,
+    PSI + 2,
+    TH,
+    TH + 1,
+    TH + 2,
+    THD,
+    THD + 1,
+    THD + 2,
+];
+
+/// [`transition`] written into `phi`, which [`Phi::new`] built with [`PHI_ROWS`]: every
+/// row rewritten in place (the time update's Φ without a copy of it).
+pub fn transition_into<T: Real, const S: usize>(
+    phi: &mut Phi<T, S>,
+    m: &IntervalMeans<T>,
+    flex: &FlexureModel<T>,
+    aug: &Augmentation<T>,
+    t: T,
+) {
+    let mut ft = dynamics::<T, S>(m, aug);
+    ft *= t;
     // Columns of F t's rows that are not zero (δv and ψ's own always listed).
     let mut cols = [0usize; S];
     let mut n = 0;
@@ -183,10 +209,16 @@ pub fn transition<T: Real, const S: usize>(
     }
     let times_ft = |left: &[[T; DYN]; DYN], j: usize| -> [T; DYN] {
         let mut acc = [T::zero(); DYN];
+        // Written out over the six rows: the size-optimized image does not unroll, and the
+        // loop cost three times its multiply-adds (the same arithmetic, element by element).
         for (lk, &fkj) in left.iter().zip(column(&ft, j).iter()) {
-            for (a, &l) in acc.iter_mut().zip(lk.iter()) {
-                *a += l * fkj;
-            }
+            let ([a0, a1, a2, a3, a4, a5], [l0, l1, l2, l3, l4, l5]) = (&mut acc, lk);
+            *a0 += *l0 * fkj;
+            *a1 += *l1 * fkj;
+            *a2 += *l2 * fkj;
+            *a3 += *l3 * fkj;
+            *a4 += *l4 * fkj;
+            *a5 += *l5 * fkj;
         }
         acc
     };
@@ -208,41 +240,24 @@ pub fn transition<T: Real, const S: usize>(
             dst.copy_from_slice(&c);
         }
     }
-    let mut index = [0usize; ACTIVE];
-    for (r, e) in index.iter_mut().enumerate() {
-        *e = if r < DYN { r } else { TH + (r - DYN) };
-    }
-    let mut phi = Phi::<T, S>::new(index);
     let (half, sixth) = (T::of(0.5), T::of(1.0 / 6.0));
     for i in 0..DYN {
-        let mut row = [T::zero(); S];
-        for &j in cols {
+        phi.set_row_at(i, cols, |j| {
             let id = if i == j { T::one() } else { T::zero() };
-            if let Some(e) = row.get_mut(j) {
-                *e = id
-                    + mat::get(&ft, i, j)
-                    + mat::get(&f2, i, j) * half
-                    + mat::get(&f3, i, j) * sixth;
-            }
-        }
-        phi.set_row(i, &row);
+            id + mat::get(&ft, i, j) + mat::get(&f2, i, j) * half + mat::get(&f3, i, j) * sixth
+        });
     }
     // The flexure rows: θ_k (row DYN + k) and θ̇_k (row DYN + 3 + k) of each axis's model.
     for (axis, ar) in flex.axes.iter().enumerate() {
         let a = ar.transition(flex.period_s);
         let (th, thd) = (TH + axis, THD + axis);
         for (r, row) in [(DYN + axis, 0), (DYN + 3 + axis, 1)] {
-            let mut dense = [T::zero(); S];
-            if let Some(e) = dense.get_mut(th) {
-                *e = mat::get(&a, row, 0);
-            }
-            if let Some(e) = dense.get_mut(thd) {
-                *e = mat::get(&a, row, 1);
-            }
-            phi.set_row(r, &dense);
+            phi.set_row_at(r, &[th, thd], |j| {
+                let col = if j == th { 0 } else { 1 };
+                mat::get(&a, row, col)
+            });
         }
     }
-    phi
 }
 
 /// Discrete process noise Q over one filter period `t` (s); augmented blocks are constants.

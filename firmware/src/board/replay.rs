@@ -29,8 +29,11 @@ use super::semihost::{self, HostFile};
 use super::serial::Serial;
 
 const SYST_MASK: u32 = 0x00FF_FFFF;
-/// Block size of the semihosting file transport.
-const BLOCK: usize = 4096;
+/// Block size of the semihosting file transport. Its two blocks are on the stack for the
+/// whole run, under the application's deepest frames: 512 B each (2 × 4 KiB before, 7 kB
+/// of the declared model's RAM budget) costs one semihosting call per 512 bytes, a few
+/// instructions per master update (`docs/performance.md`).
+const BLOCK: usize = 512;
 
 /// A byte transport.
 trait Port {
@@ -104,9 +107,28 @@ impl Port for Files {
 
 /// Runs the replay until the host's End message; never returns.
 pub fn run(syst: Option<SYST>) -> ! {
+    // Served in place (`as_mut`): moving the transport out of the `Option` copied it.
+    let mut files = open_files();
+    match files.as_mut() {
+        Some(f) => {
+            defmt::info!("replay: link frames from semihosting files");
+            serve(f, syst)
+        }
+        None => {
+            defmt::info!("replay: link frames on USART1");
+            serve(&mut Serial::init(), syst)
+        }
+    }
+}
+
+/// The semihosting file transport if the command line names `in=` and `out=` (exits on a
+/// file that cannot be opened), else `None` (USART1). Not inlined: its 512 B of path
+/// buffers are gone before [`serve`] runs, instead of staying in [`run`]'s frame under it.
+#[inline(never)]
+fn open_files() -> Option<Files> {
     let mut in_path = [0_u8; 256];
     let mut out_path = [0_u8; 256];
-    let files = match (
+    match (
         semihost::arg_value(b"in=", &mut in_path),
         semihost::arg_value(b"out=", &mut out_path),
     ) {
@@ -130,16 +152,6 @@ pub fn run(syst: Option<SYST>) -> ! {
             }
         }
         _ => None,
-    };
-    match files {
-        Some(mut f) => {
-            defmt::info!("replay: link frames from semihosting files");
-            serve(&mut f, syst)
-        }
-        None => {
-            defmt::info!("replay: link frames on USART1");
-            serve(&mut Serial::init(), syst)
-        }
     }
 }
 
