@@ -94,7 +94,11 @@ impl<T: Real> SecondOrderAxis<T> {
             sigma_rad.to_f64(),
             t.to_f64(),
         );
-        let valid = [w, z, s, dt].iter().all(|v| v.is_finite()) && w > 0.0 && z > 0.0 && s >= 0.0 && dt > 0.0;
+        let valid = [w, z, s, dt].iter().all(|v| v.is_finite())
+            && w > 0.0
+            && z > 0.0
+            && s >= 0.0
+            && dt > 0.0;
         if !valid {
             return None;
         }
@@ -318,7 +322,11 @@ mod tests {
     #[test]
     fn second_order_axis_is_the_exact_sampled_process() {
         use nalgebra::Matrix4;
-        for &(w, z, s, t) in &[(1.43f64, 0.33, 5e-4, 0.02), (0.5, 0.1, 1e-3, 0.01), (2.5, 1.6, 2e-4, 0.1)] {
+        for &(w, z, s, t) in &[
+            (1.43f64, 0.33, 5e-4, 0.02),
+            (0.5, 0.1, 1e-3, 0.01),
+            (2.5, 1.6, 2e-4, 0.1),
+        ] {
             let g = SecondOrderAxis::new(w, z, s, t).expect("valid");
             if z < 1.0 {
                 let (a, wd) = (z * w, w * (1.0 - z * z).sqrt());
@@ -346,7 +354,12 @@ mod tests {
             let van_loan = phi * e.fixed_view::<2, 2>(0, 2);
             for (i, j) in [(0, 0), (0, 1), (1, 1)] {
                 let rel = (g.q[(i, j)] - van_loan[(i, j)]).abs() / van_loan[(i, j)].abs();
-                assert!(rel < 1e-6, "{w} {z} Q({i},{j}): {} vs {}", g.q[(i, j)], van_loan[(i, j)]);
+                assert!(
+                    rel < 1e-6,
+                    "{w} {z} Q({i},{j}): {} vs {}",
+                    g.q[(i, j)],
+                    van_loan[(i, j)]
+                );
             }
             let p = g.stationary_covariance();
             let next = g.phi * p * g.phi.transpose() + g.q;

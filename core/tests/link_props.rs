@@ -11,9 +11,9 @@
 
 use flexcal_core::augment::{Effect, MAX_EFFECTS};
 use flexcal_core::engine::{Counters, EngineConfig, Matching};
+use flexcal_core::flexure::SecondOrderAxis;
 use flexcal_core::kalman::Health;
 use flexcal_core::link::codec::MAX_STUFFED_LEN;
-use flexcal_core::flexure::SecondOrderAxis;
 use flexcal_core::link::message::CONFIG_LEN;
 use flexcal_core::link::{
     encode, frame_len, ConfigMsg, DecodeError, Decoder, DecoderCounters, EffectPrior, EffectsError,

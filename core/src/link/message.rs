@@ -825,19 +825,19 @@ impl Message {
                 if !finite {
                     return Err(PayloadError::NonFinite);
                 }
-                let second_order_ok = m
-                    .flexure
-                    .iter()
-                    .zip(m.flexure_second_order)
-                    .all(|([w, z, sigma], on)| {
-                        !on || SecondOrderAxis::new(
-                            f64::from(*w),
-                            f64::from(*z),
-                            f64::from(*sigma),
-                            m.flexure_period_s,
-                        )
-                        .is_some()
-                    });
+                let second_order_ok =
+                    m.flexure
+                        .iter()
+                        .zip(m.flexure_second_order)
+                        .all(|([w, z, sigma], on)| {
+                            !on || SecondOrderAxis::new(
+                                f64::from(*w),
+                                f64::from(*z),
+                                f64::from(*sigma),
+                                m.flexure_period_s,
+                            )
+                            .is_some()
+                        });
                 let sigmas_ok = second_order_ok
                     && m.flexure.iter().all(|[_, _, s]| *s >= 0.0)
                     && m.process_noise.iter().all(|x| *x >= 0.0)
