@@ -389,7 +389,7 @@ fn paper_with_effects(duration_s: f64, dir: &Path, effects: &[Effect]) -> PathBu
         scenario: ScenarioArgs {
             scenario: Some("paper".into()),
             blind: false,
-            effect: None,
+            effect: Vec::new(),
             duration: Some(duration_s),
             seed: 7,
         },

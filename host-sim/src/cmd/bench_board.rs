@@ -87,7 +87,7 @@ pub fn run(a: &Args) -> Result<(), String> {
             scenario: ScenarioArgs {
                 scenario: Some(scenario.to_string()),
                 blind: false,
-                effect: None,
+                effect: Vec::new(),
                 duration: Some(10.0),
                 seed: 1,
             },

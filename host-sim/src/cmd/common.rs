@@ -23,9 +23,10 @@ pub struct ScenarioArgs {
     /// draws its own).
     #[arg(long)]
     pub blind: bool,
-    /// With `--blind`: the undeclared effect the draw carries.
-    #[arg(long, value_enum, requires = "blind")]
-    pub effect: Option<BlindEffect>,
+    /// With `--blind`: the undeclared effects the draw carries (comma separated or
+    /// repeated, each at most once).
+    #[arg(long, value_enum, requires = "blind", value_delimiter = ',')]
+    pub effect: Vec<BlindEffect>,
     /// Override the scenario's duration (s); a blind scenario lasts 600 s unless told.
     #[arg(long)]
     pub duration: Option<f64>,
@@ -41,9 +42,24 @@ impl ScenarioArgs {
     /// The scenario of `seed`: the named one (the same for every seed), or the blind
     /// draw of that seed; the duration override applied and checked.
     pub fn load_for_seed(&self, seed: u64) -> Result<Scenario, String> {
+        if let Some((k, e)) = (1..self.effect.len()).find_map(|k| {
+            self.effect[..k]
+                .contains(&self.effect[k])
+                .then_some((k, self.effect[k]))
+        }) {
+            return Err(format!(
+                "--effect: {} given twice (entry {})",
+                blind::effect_name(e),
+                k + 1
+            ));
+        }
         let mut sc = match &self.scenario {
             Some(name) if !self.blind => Scenario::load(name)?,
-            _ => blind::draw(seed, self.duration.unwrap_or(BLIND_DURATION_S), self.effect),
+            _ => blind::draw_effects(
+                seed,
+                self.duration.unwrap_or(BLIND_DURATION_S),
+                &self.effect,
+            ),
         };
         if let Some(d) = self.duration {
             sc.duration_s = d;

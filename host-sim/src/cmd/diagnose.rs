@@ -139,6 +139,12 @@ pub fn run(a: &Args) -> Result<(), String> {
             );
         }
     }
+    for x in &d.dropped {
+        println!(
+            "  backward pass: dropped {} (likelihood ratio against the set without it {:.1}, threshold {:.1}, held-out {:.1})",
+            x.effect, x.likelihood_ratio, x.threshold, x.holdout_likelihood_ratio
+        );
+    }
     println!("  channels with unexplained structure: {}", left.len());
     verdict.conclude()
 }

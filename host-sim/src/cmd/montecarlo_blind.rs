@@ -161,7 +161,9 @@ pub fn run(a: &Args) -> Result<(), String> {
     let doc = json!({
         "tool_version": TOOL_VERSION,
         "scenario": "blind",
-        "effect": a.scenario.effect.map(blind::effect_name),
+        "effect": (!a.scenario.effect.is_empty()).then(|| {
+            a.scenario.effect.iter().map(|e| blind::effect_name(*e)).collect::<Vec<_>>().join("+")
+        }),
         "ranges": blind::RANGES,
         "runs": runs.len(),
         "first_seed": a.scenario.seed,

@@ -44,7 +44,7 @@ pub fn effect_truth(effect: Effect, truth: &Truth) -> Option<Vec<f64>> {
 }
 
 /// Whitened innovations (ν/√s) of one channel axis, accepted or not, in time order.
-fn whitened(innov: &[Innovation], channel: usize, axis: usize) -> (Vec<f64>, Vec<f64>) {
+pub(crate) fn whitened(innov: &[Innovation], channel: usize, axis: usize) -> (Vec<f64>, Vec<f64>) {
     innov
         .iter()
         .filter(|i| i.channel == channel && i.axis == axis && i.variance > 0.0)
@@ -71,6 +71,11 @@ pub struct Structure {
     pub peak_hz: f64,
     /// That peak's level over the white level.
     pub peak_level: f64,
+    /// Share of the innovation variance predictable from its own past (`size`).
+    pub predictable_share: f64,
+    /// The structure's size: predictable variance beyond chance, in units of the
+    /// filter's predicted innovation variance (`size::AxisSize::excess`).
+    pub size: f64,
 }
 
 /// The structure of every channel axis of a model, tested at family-wise level `alpha`
@@ -78,7 +83,9 @@ pub struct Structure {
 pub fn structure(eval: &ModelEval, alpha: f64, rate_hz: f64) -> Vec<Structure> {
     let n = eval.residuals.len().max(1) as f64;
     let a = alpha / n;
-    eval.residuals
+    let sizes = super::size::axis_sizes(&eval.result.innovations, rate_hz);
+    let mut out: Vec<Structure> = eval
+        .residuals
         .iter()
         .map(|r| {
             let c = CHANNELS.iter().position(|n| *n == r.channel).unwrap_or(0);
@@ -89,6 +96,9 @@ pub fn structure(eval: &ModelEval, alpha: f64, rate_hz: f64) -> Vec<Structure> {
                 chi2_quantile(a / 2.0, k) / k,
                 chi2_quantile(1.0 - a / 2.0, k) / k,
             ];
+            let size = sizes
+                .iter()
+                .find(|z| z.channel == r.channel && z.axis == r.axis);
             Structure {
                 channel: r.channel,
                 axis: r.axis,
@@ -98,9 +108,14 @@ pub fn structure(eval: &ModelEval, alpha: f64, rate_hz: f64) -> Vec<Structure> {
                 rejected: r.whiteness_p < a || r.nis_mean < band[0] || r.nis_mean > band[1],
                 peak_hz,
                 peak_level,
+                predictable_share: size.map_or(f64::NAN, |z| z.share),
+                size: size.map_or(0.0, |z| z.excess),
             }
         })
-        .collect()
+        .collect();
+    // Largest first: what the structure is worth, not how significant it is.
+    out.sort_by(|x, y| y.size.total_cmp(&x.size));
+    out
 }
 
 fn residuals_json(eval: &ModelEval) -> Value {
@@ -192,7 +207,8 @@ pub fn diagnosis_json(d: &Diagnosis, rec_label: &str, rec: &Recording, command: 
             "budget": d.options.budget,
             "alpha": d.options.alpha,
             "tests": d.options.budget * d.options.candidates.len(),
-            "rule": "a candidate is significant when the Wald statistic of its block and the likelihood ratio both exceed the chi-square(dof) quantile at alpha / tests; of the significant, the one whose likelihood ratio exceeds its threshold most and whose held-out likelihood ratio is positive is added",
+            "rule": "a candidate is significant when the Wald statistic of its block and the likelihood ratio both exceed the chi-square(dof) quantile at alpha / tests; of the significant, the one whose likelihood ratio exceeds its threshold most, whose held-out likelihood ratio is positive and which does not grow the structure's size (predictable innovation variance) beyond its chance level, nor leave more than half of it where the structure dominates a channel axis (more than half its variance predictable), is added; a backward pass then drops an adopted effect whose likelihood ratio against the final set without it is at most its threshold or whose held-out likelihood ratio is not positive",
+            "dropped": d.dropped,
             "rounds": rounds_json(d),
         },
         "supported_not_adopted": supported_not_adopted(d),
@@ -246,7 +262,7 @@ pub fn decision(t: &CandidateTest, round: &Round) -> String {
         return format!("not significant: {}", why.join("; "));
     }
     if round.added == Some(t.effect) {
-        return "adopted: significant, predicts the held-out part better and explains the structure".into();
+        return "adopted: significant, predicts the held-out part better and does not grow the structure's size".into();
     }
     let gain = t.holdout_likelihood_ratio.unwrap_or(f64::NAN);
     if gain.is_nan() || gain <= 0.0 {
@@ -255,13 +271,21 @@ pub fn decision(t: &CandidateTest, round: &Round) -> String {
             fmt_g(gain)
         );
     }
-    let limit = crate::diagnose::EXPLAINED_FRACTION_LEFT * round.structure;
-    if round.structure > 0.0 && t.structure_after > limit {
+    if t.size_after.is_nan() || t.size_after > round.size + round.size_tolerance {
         return format!(
-            "rejected: leaves {:.0}% of the structure ({} of {}; at most {:.0}% allowed)",
-            100.0 * t.structure_after / round.structure,
-            fmt_g(t.structure_after),
-            fmt_g(round.structure),
+            "rejected: grows the structure's size from {} to {} (chance level {})",
+            fmt_g(round.size),
+            fmt_g(t.size_after),
+            fmt_g(round.size_tolerance)
+        );
+    }
+    let limit = crate::diagnose::EXPLAINED_FRACTION_LEFT * round.size;
+    if round.dominated && t.size_after > limit {
+        return format!(
+            "rejected: the structure dominates a channel axis and it leaves {:.0}% of its size ({} of {}; at most {:.0}% allowed)",
+            100.0 * t.size_after / round.size,
+            fmt_g(t.size_after),
+            fmt_g(round.size),
             100.0 * crate::diagnose::EXPLAINED_FRACTION_LEFT
         );
     }
@@ -482,8 +506,9 @@ pub fn report_md(d: &Diagnosis, rec_label: &str, rec: &Recording, command: &str)
         );
         let _ = writeln!(
             s,
-            "Structure statistic of this round's model: {}.\n\n| candidate | k | estimate ± σ | Wald | likelihood ratio | threshold | structure left | held-out likelihood ratio | decision |\n|---|---|---|---|---|---|---|---|---|",
-            fmt_g(r.structure)
+            "Structure's size of this round's model (predictable innovation variance beyond chance, summed over the channel axes): {} (chance level {}).\n\n| candidate | k | estimate ± σ | Wald | likelihood ratio | threshold | size with it | held-out likelihood ratio | decision |\n|---|---|---|---|---|---|---|---|---|",
+            fmt_g(r.size),
+            fmt_g(r.size_tolerance)
         );
         for t in &r.tests {
             let _ = writeln!(
@@ -496,9 +521,26 @@ pub fn report_md(d: &Diagnosis, rec_label: &str, rec: &Recording, command: &str)
                 fmt_g(t.wald),
                 fmt_g(t.likelihood_ratio),
                 fmt_g(t.threshold),
-                fmt_g(t.structure_after),
+                fmt_g(t.size_after),
                 t.holdout_likelihood_ratio.map_or("–".to_string(), fmt_g),
                 decision(t, r)
+            );
+        }
+        let _ = writeln!(s);
+    }
+    if !d.dropped.is_empty() {
+        let _ = writeln!(
+            s,
+            "Backward pass: dropped from the final set, where it no longer earns its place:\n\n| effect | likelihood ratio against the set without it | threshold | held-out likelihood ratio |\n|---|---|---|---|"
+        );
+        for x in &d.dropped {
+            let _ = writeln!(
+                s,
+                "| `{}` | {} | {} | {} |",
+                x.effect,
+                fmt_g(x.likelihood_ratio),
+                fmt_g(x.threshold),
+                fmt_g(x.holdout_likelihood_ratio)
             );
         }
         let _ = writeln!(s);
@@ -605,14 +647,16 @@ pub fn report_md(d: &Diagnosis, rec_label: &str, rec: &Recording, command: &str)
     } else {
         let _ = writeln!(
             s,
-            "No candidate explains what follows (it is reported, not forced onto the nearest effect):\n\n| channel | NIS | band | whiteness p | spectral peak (Hz) | peak / white level |\n|---|---|---|---|---|---|"
+            "No candidate explains what follows (it is reported, not forced onto the nearest effect), largest first by its size — the innovation variance predictable from the innovations' own past beyond chance, in units of the predicted variance:\n\n| channel | size | predictable share | NIS | band | whiteness p | spectral peak (Hz) | peak / white level |\n|---|---|---|---|---|---|---|---|"
         );
         for l in &left {
             let _ = writeln!(
                 s,
-                "| {} {} | {} | [{}, {}] | {} | {} | {} |",
+                "| {} {} | {} | {} | {} | [{}, {}] | {} | {} | {} |",
                 l.channel,
                 ["x", "y", "z"][l.axis.min(2)],
+                fmt_g(l.size),
+                fmt_g(l.predictable_share),
                 fmt_g(l.nis_mean),
                 fmt_g(l.nis_band[0]),
                 fmt_g(l.nis_band[1]),

@@ -47,10 +47,10 @@ pub const RANGES: [&str; 12] = [
     "motion: roll 5-15 deg / 6-14 s, pitch 2-6 deg / 5-12 s, yaw 1-4 deg / 4-10 s; speed 0 (half) or 1-8 m/s",
     "site: latitude -60..60 deg, longitude -180..180 deg",
     "IMU rate: 100 | 200 | 400 Hz; master rate: 10 | 20 | 50 | 100 Hz (at most the IMU rate)",
-    "undeclared effect: only when asked (--effect), sized from its own range",
+    "undeclared effects: only when asked (--effect, one or more), each sized from its own range",
 ];
 
-/// An undeclared effect a blind draw may carry (one at a time), sized from its range.
+/// An undeclared effect a blind draw may carry, sized from its range.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum BlindEffect {
@@ -98,6 +98,12 @@ fn signed3(rng: &mut impl Rng, lo: f64, hi: f64) -> [f64; 3] {
 /// Draws a blind scenario of `duration_s` from `seed` (see the module doc), with the
 /// undeclared `effect` when given.
 pub fn draw(seed: u64, duration_s: f64, effect: Option<BlindEffect>) -> Scenario {
+    draw_effects(seed, duration_s, effect.as_slice())
+}
+
+/// [`draw`] with several undeclared effects at once, each sized from its own range in
+/// the order given (one effect draws exactly what [`draw`] draws).
+pub fn draw_effects(seed: u64, duration_s: f64, effects: &[BlindEffect]) -> Scenario {
     // A stream of its own: the simulation's seed is the same number, its stream not.
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xb1_17d0_5eed);
     let imu_rate: f64 = [100.0, 200.0, 400.0][rng.gen_range(0..3)];
@@ -165,35 +171,37 @@ pub fn draw(seed: u64, duration_s: f64, effect: Option<BlindEffect>) -> Scenario
         accel_vrw_mps_rh: accel_vrw,
     };
     let mut undeclared = Undeclared::default();
-    match effect {
-        None => {}
-        Some(BlindEffect::TimeDelay) => {
-            undeclared.master_delay_s = [0.010, 0.020, 0.050][rng.gen_range(0..3)];
-        }
-        Some(BlindEffect::LeverArmError) => {
-            let d = normal3(&mut rng, 1.0);
-            let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt().max(1e-12);
-            undeclared.lever_arm_error_m = d.map(|v| 0.5 * v / n);
-        }
-        Some(BlindEffect::GyroScaleFactor) => imu.gyro_scale_ppm = signed3(&mut rng, 100.0, 800.0),
-        Some(BlindEffect::AccelScaleFactor) => {
-            imu.accel_scale_ppm = signed3(&mut rng, 100.0, 800.0)
-        }
-        Some(BlindEffect::GyroNonorthogonality) => {
-            imu.gyro_nonorthogonality_urad = signed3(&mut rng, 100.0, 800.0)
-        }
-        Some(BlindEffect::AccelNonorthogonality) => {
-            imu.accel_nonorthogonality_urad = signed3(&mut rng, 100.0, 800.0)
-        }
-        Some(BlindEffect::GyroGSensitivity) => {
-            let s = signed3(&mut rng, 0.5, 0.5);
-            imu.gyro_g_sensitivity_deg_h_per_g = [s[0], 0.0, 0.0, 0.0, s[1], 0.0, 0.0, 0.0, s[2]];
+    for effect in effects {
+        match effect {
+            BlindEffect::TimeDelay => {
+                undeclared.master_delay_s = [0.010, 0.020, 0.050][rng.gen_range(0..3)];
+            }
+            BlindEffect::LeverArmError => {
+                let d = normal3(&mut rng, 1.0);
+                let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt().max(1e-12);
+                undeclared.lever_arm_error_m = d.map(|v| 0.5 * v / n);
+            }
+            BlindEffect::GyroScaleFactor => imu.gyro_scale_ppm = signed3(&mut rng, 100.0, 800.0),
+            BlindEffect::AccelScaleFactor => imu.accel_scale_ppm = signed3(&mut rng, 100.0, 800.0),
+            BlindEffect::GyroNonorthogonality => {
+                imu.gyro_nonorthogonality_urad = signed3(&mut rng, 100.0, 800.0)
+            }
+            BlindEffect::AccelNonorthogonality => {
+                imu.accel_nonorthogonality_urad = signed3(&mut rng, 100.0, 800.0)
+            }
+            BlindEffect::GyroGSensitivity => {
+                let s = signed3(&mut rng, 0.5, 0.5);
+                imu.gyro_g_sensitivity_deg_h_per_g =
+                    [s[0], 0.0, 0.0, 0.0, s[1], 0.0, 0.0, 0.0, s[2]];
+            }
         }
     }
+    let names: Vec<&str> = effects.iter().map(|e| effect_name(*e)).collect();
     Scenario {
-        name: match effect {
-            None => format!("blind-{seed}"),
-            Some(e) => format!("blind-{seed}-{}", effect_name(e)),
+        name: if names.is_empty() {
+            format!("blind-{seed}")
+        } else {
+            format!("blind-{seed}-{}", names.join("+"))
         },
         duration_s,
         site,
@@ -285,5 +293,21 @@ mod tests {
         let s = draw(5, 60.0, Some(BlindEffect::LeverArmError));
         let n: f64 = s.undeclared.lever_arm_error_m.iter().map(|v| v * v).sum();
         assert!((n.sqrt() - 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn two_effects_are_drawn_together_and_one_draws_as_before() {
+        let one = draw(5, 60.0, Some(BlindEffect::TimeDelay));
+        assert_eq!(draw_effects(5, 60.0, &[BlindEffect::TimeDelay]), one);
+        let two = draw_effects(
+            5,
+            60.0,
+            &[BlindEffect::TimeDelay, BlindEffect::LeverArmError],
+        );
+        assert_eq!(two.undeclared.master_delay_s, one.undeclared.master_delay_s);
+        let n: f64 = two.undeclared.lever_arm_error_m.iter().map(|v| v * v).sum();
+        assert!((n.sqrt() - 0.5).abs() < 1e-12);
+        assert_eq!(two.name, "blind-5-time_delay+lever_arm_error");
+        two.validate().expect("a two-effect draw validates");
     }
 }
