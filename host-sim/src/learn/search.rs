@@ -158,8 +158,13 @@ impl<'a> Search<'a> {
         if start > 0.0 {
             return;
         }
-        let sizes = [1e-3, 1e-2, 1e-1, 1.0].map(|k| k * scale);
-        let models: Vec<ModelParams> = sizes.iter().map(|&s| self.trial(&[p], |_, _| s)).collect();
+        self.best_of(p, start, &[1e-3, 1e-2, 1e-1, 1.0].map(|k| k * scale));
+    }
+
+    /// Evaluates `p` at each of `values`, keeps the best if it beats the current model,
+    /// and records the gain from `start`.
+    fn best_of(&mut self, p: Param, start: f64, values: &[f64]) {
+        let models: Vec<ModelParams> = values.iter().map(|&v| self.trial(&[p], |_, _| v)).collect();
         let results = self.eval_all(&models);
         let before = self.current.total;
         if let Some((m, l)) = models
@@ -173,8 +178,7 @@ impl<'a> Search<'a> {
                 self.current = l;
             }
         }
-        let gain = before - self.current.total;
-        self.record(p, start, None, gain);
+        self.record(p, start, None, before - self.current.total);
     }
 
     /// Searches one quantity (or one per axis, `params` of the same kind) on a log scale
@@ -411,23 +415,7 @@ impl<'a> Search<'a> {
     pub fn shrinking(&mut self, p: Param, h: f64) {
         let start = self.model.get(p);
         if start > 0.0 {
-            let sizes = [0.0, 1e-3, 1e-2, 1e-1].map(|k| k * start);
-            let models: Vec<ModelParams> =
-                sizes.iter().map(|&v| self.trial(&[p], |_, _| v)).collect();
-            let results = self.eval_all(&models);
-            let before = self.current.total;
-            if let Some((m, l)) = models
-                .into_iter()
-                .zip(results)
-                .filter_map(|(m, l)| l.map(|l| (m, l)))
-                .min_by(|a, b| a.1.total.total_cmp(&b.1.total))
-            {
-                if l.total < self.current.total {
-                    self.model = m;
-                    self.current = l;
-                }
-            }
-            self.record(p, start, None, before - self.current.total);
+            self.best_of(p, start, &[0.0, 1e-3, 1e-2, 1e-1].map(|k| k * start));
         }
         if self.model.get(p) > 0.0 {
             self.line(&[p], h);
