@@ -85,7 +85,7 @@ impl<T: Real> MeasurementNoise<T> {
 /// are alike (a sum of three squares, a division by three and a square root may
 /// round), so a uniform configuration computes what it did when the noise was one σ
 /// per channel.
-fn rms<T: Real>(sigma: &Vector3<T>) -> T {
+pub fn axes_rms<T: Real>(sigma: &Vector3<T>) -> T {
     if sigma.x == sigma.y && sigma.y == sigma.z {
         sigma.x
     } else {
@@ -1011,7 +1011,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 let dt = T::of(msg.t - p.t);
                 let w_nb = quat_log(&(p.q_bm_n.inverse() * msg.q_bm_n)) / dt;
                 let w_en = here.transport_rate_n(&msg.v_n);
-                let sigma = rms(&noise.attitude_rad) / dt;
+                let sigma = axes_rms(&noise.attitude_rad) / dt;
                 (w_nb + c_bm_n.transpose() * w_en, T::of(2.0) * sigma * sigma)
             }
             _ => (Vector3::zeros(), T::zero()),

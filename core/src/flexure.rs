@@ -268,11 +268,10 @@ mod tests {
         assert!((p[(0, 0)].sqrt() - 3e-4).abs() < 1e-12);
     }
 
-    /// The exact one-step prediction variance of θ sampled from the continuous process
-    /// (the ARMA(2,1)'s innovation variance): the steady-state Kalman prediction variance
-    /// of θ observed without noise, with Φ and Q of the sampled `[θ, θ̇]` by Van Loan's
-    /// matrix exponential (a Taylor series: `t` is small).
-    fn exact_one_step_variance(omega: f64, zeta: f64, sigma: f64, t: f64) -> f64 {
+    /// Φ and Q of the continuous mode sampled at period `t`, by Van Loan's matrix
+    /// exponential (a Taylor series: `t` is small): the reference the tests hold the
+    /// filter's models to.
+    fn van_loan(omega: f64, zeta: f64, sigma: f64, t: f64) -> (Matrix2<f64>, Matrix2<f64>) {
         use nalgebra::Matrix4;
         let q = 4.0 * zeta * omega.powi(3) * sigma * sigma;
         let a = Matrix2::new(0.0, 1.0, -omega * omega, -2.0 * zeta * omega);
@@ -281,12 +280,20 @@ mod tests {
         m[(1, 3)] = q;
         m.fixed_view_mut::<2, 2>(2, 2).copy_from(&a.transpose());
         let (mut e, mut term) = (Matrix4::identity(), Matrix4::identity());
-        for k in 1..40 {
+        for k in 1..60 {
             term = term * m * (t / k as f64);
             e += term;
         }
         let phi: Matrix2<f64> = e.fixed_view::<2, 2>(2, 2).transpose();
         let qd = phi * e.fixed_view::<2, 2>(0, 2);
+        (phi, qd)
+    }
+
+    /// The exact one-step prediction variance of θ sampled from the continuous process
+    /// (the ARMA(2,1)'s innovation variance): the steady-state Kalman prediction variance
+    /// of θ observed without noise, with Φ and Q of the sampled `[θ, θ̇]` ([`van_loan`]).
+    fn exact_one_step_variance(omega: f64, zeta: f64, sigma: f64, t: f64) -> f64 {
+        let (phi, qd) = van_loan(omega, zeta, sigma, t);
         let mut p = Matrix2::new(sigma * sigma, 0.0, 0.0, (omega * sigma).powi(2));
         for _ in 0..20_000 {
             let k = p.column(0) / p[(0, 0)];
@@ -321,7 +328,6 @@ mod tests {
     /// covariance a fixed point of the propagation; also for an over-damped axis.
     #[test]
     fn second_order_axis_is_the_exact_sampled_process() {
-        use nalgebra::Matrix4;
         for &(w, z, s, t) in &[
             (1.43f64, 0.33, 5e-4, 0.02),
             (0.5, 0.1, 1e-3, 0.01),
@@ -339,26 +345,14 @@ mod tests {
                 );
                 assert!((g.phi - closed).norm() < 1e-12 * closed.norm(), "{w} {z}");
             }
-            let q = 4.0 * z * w.powi(3) * s * s;
-            let a = Matrix2::new(0.0, 1.0, -w * w, -2.0 * z * w);
-            let mut m = Matrix4::zeros();
-            m.fixed_view_mut::<2, 2>(0, 0).copy_from(&(-a));
-            m[(1, 3)] = q;
-            m.fixed_view_mut::<2, 2>(2, 2).copy_from(&a.transpose());
-            let (mut e, mut term) = (Matrix4::identity(), Matrix4::identity());
-            for k in 1..60 {
-                term = term * m * (t / k as f64);
-                e += term;
-            }
-            let phi: Matrix2<f64> = e.fixed_view::<2, 2>(2, 2).transpose();
-            let van_loan = phi * e.fixed_view::<2, 2>(0, 2);
+            let (_, q_ref) = van_loan(w, z, s, t);
             for (i, j) in [(0, 0), (0, 1), (1, 1)] {
-                let rel = (g.q[(i, j)] - van_loan[(i, j)]).abs() / van_loan[(i, j)].abs();
+                let rel = (g.q[(i, j)] - q_ref[(i, j)]).abs() / q_ref[(i, j)].abs();
                 assert!(
                     rel < 1e-6,
                     "{w} {z} Q({i},{j}): {} vs {}",
                     g.q[(i, j)],
-                    van_loan[(i, j)]
+                    q_ref[(i, j)]
                 );
             }
             let p = g.stationary_covariance();

@@ -86,24 +86,18 @@ impl<T: Real, const N: usize, const R: usize> Transition<T, N, R> {
 
     /// Row `r` from `row` (dense), its non-zero columns listed.
     pub fn set_row(&mut self, r: usize, row: &[T; N]) {
-        let (Some(dst), Some(cols), Some(count)) = (
-            self.values.get_mut(r),
-            self.cols.get_mut(r),
-            self.count.get_mut(r),
-        ) else {
-            return;
-        };
-        *dst = *row;
+        let mut at = [0usize; N];
         let mut n = 0;
         for (j, &v) in row.iter().enumerate() {
             if v != T::zero() {
-                if let Some(c) = cols.get_mut(n) {
-                    *c = j as u8;
+                if let Some(a) = at.get_mut(n) {
+                    *a = j;
                 }
                 n += 1;
             }
         }
-        *count = n;
+        let at = at.get(..n).unwrap_or(&[]);
+        self.set_row_at(r, at, |j| row.get(j).copied().unwrap_or_else(T::zero));
     }
 
     /// Row `r` written in place, zero except at the columns `at` (ascending, distinct),

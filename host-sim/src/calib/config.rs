@@ -430,15 +430,9 @@ impl CalibConfig {
     /// (rad/s): `lever_arm_rate_noise_radps`, else the RMS of the rate noise over the
     /// axes (exactly the rate noise when the axes are alike).
     pub fn lever_arm_rate_noise(&self) -> f64 {
-        if let Some(v) = self.lever_arm_rate_noise_radps {
-            return v;
-        }
-        let [x, y, z] = self.rate_noise_radps;
-        if x == y && y == z {
-            x
-        } else {
-            ((x * x + y * y + z * z) / 3.0).sqrt()
-        }
+        self.lever_arm_rate_noise_radps.unwrap_or_else(|| {
+            flexcal_core::engine::axes_rms(&Vector3::from(self.rate_noise_radps))
+        })
     }
 
     /// The matching channels as flags.

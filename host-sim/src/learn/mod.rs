@@ -183,7 +183,8 @@ pub fn learn(
         // What of the rate matching's noise the lever arm carries into the velocity
         // (the master's own rate noise), from the ladder that includes none: on a
         // noiseless master the rate matching's noise is the slave's side (model error),
-        // and carried by a 26 m arm it held the velocity NIS at 0.13–0.69 (blind seed 14).
+        // and carried by a 26 m arm it held the velocity NIS at 0.13–0.69 (blind seed 14,
+        // measured with the noise floors at the f32 resolution; docs/model-learning.md).
         if m.velocity && m.angular_rate {
             s.shrinking(Param::LeverArmRateNoise, h);
         }
