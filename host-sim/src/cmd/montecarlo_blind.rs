@@ -32,6 +32,11 @@ pub struct BlindRun {
     /// Per channel axis (`channel/axis`): whether its NIS mean is inside its 95% band,
     /// with the learned model and with the default.
     pub nis_in_band: Vec<(String, bool, bool)>,
+    /// Per channel axis: the NIS mean with the learned model and with the default, and
+    /// the band (kept so a run outside its band shows by how much).
+    pub nis_values: Vec<(String, f64, f64, [f64; 2])>,
+    /// What the master's errors were drawn as: `none`, `white` or `smooth`.
+    pub master_kind: &'static str,
     /// The learned quantities against the draw.
     pub params: Vec<ParamError>,
     /// Whether the learned model passed its held-out check (else the start was kept).
@@ -59,26 +64,33 @@ pub fn blind_run(a: &Args, seed: u64) -> Result<BlindRun, String> {
     a.model.apply(&mut built_in)?;
     let (default, default_res) = score_run(&rec, &built_in, seed, a.precision)?;
     let with_default = channel_residuals(&default_res.innovations);
-    let nis_in_band = channel_residuals(&learned_res.innovations)
-        .into_iter()
-        .map(|c| {
-            let inside = |m: f64, b: [f64; 2]| m >= b[0] && m <= b[1];
-            let d = with_default
-                .iter()
-                .find(|d| d.channel == c.channel && d.axis == c.axis)
-                .is_some_and(|d| inside(d.nis_mean, d.nis_band));
-            (
-                format!("{}/{}", c.channel, c.axis),
-                inside(c.nis_mean, c.nis_band),
-                d,
-            )
-        })
-        .collect();
+    let inside = |m: f64, b: [f64; 2]| m >= b[0] && m <= b[1];
+    let (mut nis_in_band, mut nis_values) = (Vec::new(), Vec::new());
+    for c in channel_residuals(&learned_res.innovations) {
+        let d = with_default
+            .iter()
+            .find(|d| d.channel == c.channel && d.axis == c.axis);
+        let name = format!("{}/{}", c.channel, c.axis);
+        nis_in_band.push((
+            name.clone(),
+            inside(c.nis_mean, c.nis_band),
+            d.is_some_and(|d| inside(d.nis_mean, d.nis_band)),
+        ));
+        let d_nis = d.map_or(f64::NAN, |d| d.nis_mean);
+        nis_values.push((name, c.nis_mean, d_nis, c.nis_band));
+    }
+    let master_kind = match (&sc.master.smooth_error, sc.master.velocity_noise_mps > 0.0) {
+        (Some(_), _) => "smooth",
+        (None, true) => "white",
+        (None, false) => "none",
+    };
     Ok(BlindRun {
         seed,
         learned,
         default,
         nis_in_band,
+        nis_values,
+        master_kind,
         params: param_errors(&ModelParams::from_config(&l.learned_config), &l.values, &sc),
         adopted: l.adopted,
         learn_seconds: l.seconds,
@@ -175,7 +187,8 @@ pub fn run(a: &Args) -> Result<(), String> {
         "learn_seconds_mean": runs.iter().map(|r| r.learn_seconds).sum::<f64>() / runs.len().max(1) as f64,
         "parameters": medians,
         "per_run": runs.iter().map(|r| json!({
-            "seed": r.seed, "adopted": r.adopted,
+            "seed": r.seed, "adopted": r.adopted, "master": r.master_kind,
+            "nis": r.nis_values.iter().map(|(c, l, d, b)| json!({"channel": c, "learned": l, "default": d, "band": b})).collect::<Vec<_>>(),
             "learned": {"nees": r.learned.nees, "nis_mean": r.learned.nis, "error": r.learned.error, "sigma": r.learned.sigma},
             "default": {"nees": r.default.nees, "nis_mean": r.default.nis, "error": r.default.error, "sigma": r.default.sigma},
             "parameters": r.params,
