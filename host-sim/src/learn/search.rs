@@ -504,6 +504,61 @@ mod tests {
         assert!((info - 0.5 * 6.0 / 0.25).abs() < 1e-9, "{info}");
     }
 
+    /// The mean NIS of an axis whose innovation variance is `hph + r_true` while the
+    /// filter assumes `hph + r`: convex and decreasing in `r`, 1 at `r_true`.
+    fn nis_of(r: f64, hph: f64, r_true: f64) -> (f64, f64) {
+        let s = hph + r;
+        ((hph + r_true) / s, -(hph + r_true) / (s * s))
+    }
+
+    /// Steps until the NIS is within 1e-3 of 1 (at most 20), from `r`.
+    fn steps_to_converge(mut r: f64, hph: f64, r_true: f64) -> (usize, f64) {
+        let mut previous = None;
+        for k in 0..20 {
+            let (nis, d) = nis_of(r, hph, r_true);
+            if (nis - 1.0).abs() < 1e-3 {
+                return (k, r);
+            }
+            let next = next_variance(r, nis, d, previous);
+            previous = Some((r, nis));
+            r = next;
+        }
+        (20, r)
+    }
+
+    #[test]
+    fn covariance_matching_reaches_nis_one_where_the_states_dominate() {
+        // The states carry 90 % of the innovation variance: √NIS scaling crawls here.
+        let (hph, r_true) = (9.0, 1.0);
+        for start in [0.05, 0.5, 2.0, 20.0] {
+            let (k, r) = steps_to_converge(start, hph, r_true);
+            assert!(k <= 6, "from {start}: {k} steps, r = {r}");
+            assert!((r - r_true).abs() < 0.02, "from {start}: r = {r}");
+        }
+    }
+
+    #[test]
+    fn first_step_from_above_one_never_passes_the_root() {
+        // NIS above 1 (r too small): Newton's step on a convex decreasing NIS stops short.
+        let (hph, r_true) = (3.0, 5.0);
+        let r = 0.5;
+        let (nis, d) = nis_of(r, hph, r_true);
+        let next = next_variance(r, nis, d, None);
+        assert!(next > r && next <= r_true, "{next}");
+        // Below 1 (r too large): r·NIS stops short too.
+        let r = 50.0;
+        let (nis, d) = nis_of(r, hph, r_true);
+        let next = next_variance(r, nis, d, None);
+        assert!(next < r && next >= r_true, "{next}");
+    }
+
+    #[test]
+    fn covariance_matching_steps_are_bounded_and_finite() {
+        assert_eq!(next_variance(1.0, f64::NAN, -1.0, None), 1.0);
+        assert_eq!(next_variance(1.0, 1e9, -1e-12, None), 100.0);
+        assert_eq!(next_variance(1.0, 1e-9, -1.0, None), 0.01);
+    }
+
     #[test]
     fn concave_points_give_no_vertex() {
         assert!(parabola_vertex((-1.0, 0.0), (0.0, 1.0), (1.0, 0.0), 1.0).is_none());
