@@ -416,7 +416,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// and θ's columns, and `D_ψ` the master's attitude noise: given the misalignment and
     /// the flexure, ψ is known to the master's precision, which a formed `P₀` in `f32`
     /// cannot carry (`P_ψψ ≈ J P_μμ Jᵀ` to 1 − 10⁻⁸ with a 2 µrad master). Each flexure
-    /// axis's `(θ, θ̇)` pair: θ given θ̇. Written into the filter's own storage (`u`, `d`:
+    /// axis's `(θ, θ̇)` pair: θ given θ̇. Equal to the formed `P₀` (tested,
+    /// `initial_factor_is_the_formed_covariance`). Written into the filter's own storage (`u`, `d`:
     /// see [`Kalman::restart_factored`]).
     fn initial_factor(cfg: &EngineConfig<T>, u: &mut StateMat<T, S>, d: &mut StateVec<T, S>) {
         let s = &cfg.initial_sigma;
@@ -466,13 +467,17 @@ impl<T: Real, const S: usize> Engine<T, S> {
         for i in cfg.augmentation.dimension()..S {
             set_d(i, T::one());
         }
-        // ψ = −J (δμ + θ) + n.
+        // ψ = −J (δμ + θ) + n. U maps the independent parts e (variances D) to the states,
+        // x = U e, and θ = e_θ + U(θ, θ̇) e_θ̇: so ψ's row is −J at δμ and θ and
+        // −J U(θ, θ̇) at θ̇.
         let j = right_jacobian(&cfg.initial_misalignment_rad);
         for r in 0..3 {
             for c in 0..3 {
                 let v = -mat::get(&j, r, c);
                 mat::set(u, PSI + r, MU + c, v);
                 mat::set(u, PSI + r, TH + c, v);
+                let w = v * mat::get(u, TH + c, THD + c);
+                mat::set(u, PSI + r, THD + c, w);
             }
             let sigma = cfg.measurement_noise.attitude_rad.get(r).copied();
             set_d(PSI + r, sq(sigma.unwrap_or_else(T::zero)));

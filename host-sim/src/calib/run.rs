@@ -71,10 +71,11 @@ pub const CHANNELS: [&str; 3] = ["velocity", "attitude", "angular_rate"];
 pub struct CovarianceCheck {
     /// How many times the covariance was checked (after every master update).
     pub checks: usize,
-    /// Checks where the Cholesky factorization of the scaled covariance failed.
+    /// Checks where the covariance was not positive definite: a conditional variance of
+    /// its UD factors (`Kalman::min_conditional_variance`) not positive.
     pub not_positive_definite: usize,
     /// Largest |P_ij − P_ji| seen, scaled units: zero by construction since the filter
-    /// stores one triangle (`Kalman`), so it stays at its initial 0.
+    /// keeps the factors (`Kalman`), so it stays at its initial 0.
     pub max_asymmetry: f64,
     /// Smallest diagonal element seen, scaled units.
     pub min_diagonal: f64,
