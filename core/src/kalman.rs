@@ -311,49 +311,40 @@ fn bierman_column<T: Real>(col: &mut [T], b: &mut [T], lambda: T, g: T) {
     }
 }
 
-/// The two parts of the weighted Gram-Schmidt matrix `W` of a time update, row-major:
-/// `W Dw Wᵀ = Φ P Φᵀ + Q` with `W = [Φ U | U_Q]` and `Dw = diag(D, D_Q)` (`Q = U_Q D_Q U_Qᵀ`).
-/// Row `i` of the first part is zero before column `lo[i]`, of the second before column
-/// `i` (both triangles stay so through the orthogonalization, which only ever subtracts
-/// a later row from an earlier one).
-struct Gram<T, const N: usize> {
+/// The process noise's part of the weighted Gram-Schmidt matrix of a time update: `Q`'s
+/// UD factors `Q = U_Q D_Q U_Qᵀ`, row-major, only the columns with a positive weight kept
+/// (most states take no process noise: their columns would only add zeros).
+struct NoisePart<T, const N: usize> {
+    /// Row `i`: `U_Q(i, cols[t])` at `t`; zero before `first[i]`.
     w: [[T; N]; N],
-    lo: [usize; N],
-    wq: [[T; N]; N],
+    /// `D_Q` of the kept columns.
     dq: [T; N],
+    /// The kept columns' states, ascending, `n` of them.
+    cols: [u8; N],
+    n: usize,
+    /// First kept column at or after state `i`.
+    first: [u8; N],
 }
 
-impl<T: Real, const N: usize> Gram<T, N> {
-    /// `W`'s first part from `U` (its rows, `Φ` the identity) and a zero `Q`.
-    fn of_u(u: &[T]) -> Self {
-        let mut g = Self {
+impl<T: Real, const N: usize> NoisePart<T, N> {
+    /// From `Q`'s upper triangle (row-major, written by `fill`): factored, a column's
+    /// non-zeros found and only they eliminated (Q is a diagonal and a few pairs). A pivot
+    /// that is not positive (a `Q` only semi-definite there) takes no column.
+    fn new(fill: impl FnOnce(&mut [[T; N]; N])) -> Self {
+        let mut q = Self {
             w: [[T::zero(); N]; N],
-            lo: [0; N],
-            wq: [[T::zero(); N]; N],
             dq: [T::zero(); N],
+            cols: [0; N],
+            n: 0,
+            first: [0; N],
         };
-        for (i, (row, lo)) in g.w.iter_mut().zip(g.lo.iter_mut()).enumerate() {
-            *lo = i;
-            add_urow::<T, N>(row.get_mut(i..).unwrap_or(&mut []), T::one(), u, i);
-        }
-        g
-    }
-
-    /// `Q`'s UD factors (`U_Q` into `wq`, `D_Q` into `dq`) from the upper triangle written
-    /// into `wq` (row-major): Q is a diagonal and a few pairs, so each column's non-zeros
-    /// are found and only they are eliminated. A pivot that is not positive (a `Q` that is
-    /// only semi-definite there) takes weight zero and its column is dropped.
-    fn factor_q(&mut self) {
+        fill(&mut q.w);
+        let mut weight = [T::zero(); N];
         for j in (0..N).rev() {
-            let dj = self
-                .wq
-                .get(j)
-                .and_then(|r| r.get(j))
-                .copied()
-                .unwrap_or_else(T::zero);
+            let dj = q.at(j, j);
             let mut nz = [0u8; N];
             let mut n = 0;
-            for (i, row) in self.wq.iter().enumerate().take(j) {
+            for (i, row) in q.w.iter().enumerate().take(j) {
                 if row.get(j).is_some_and(|&v| v != T::zero()) {
                     if let Some(e) = nz.get_mut(n) {
                         *e = i as u8;
@@ -364,101 +355,180 @@ impl<T: Real, const N: usize> Gram<T, N> {
             let nz = nz.get(..n).unwrap_or(&[]);
             let pos = dj > T::zero();
             if pos {
-                let inv = T::one() / dj;
                 for (a, &i) in nz.iter().enumerate() {
-                    let qi = self.q_at(usize::from(i), j);
+                    let qi = q.at(usize::from(i), j);
                     for &k in nz.get(a..).unwrap_or(&[]) {
-                        let qk = self.q_at(usize::from(k), j);
-                        if let Some(e) = self
-                            .wq
-                            .get_mut(usize::from(i))
-                            .and_then(|r| r.get_mut(usize::from(k)))
+                        let qk = q.at(usize::from(k), j);
+                        if let Some(e) =
+                            q.w.get_mut(usize::from(i))
+                                .and_then(|r| r.get_mut(usize::from(k)))
                         {
-                            *e -= qi * qk * inv;
+                            *e -= qi * qk / dj;
                         }
                     }
                 }
             }
             for &i in nz {
-                if let Some(e) = self.wq.get_mut(usize::from(i)).and_then(|r| r.get_mut(j)) {
+                if let Some(e) = q.w.get_mut(usize::from(i)).and_then(|r| r.get_mut(j)) {
                     *e = if pos { *e / dj } else { T::zero() };
                 }
             }
-            if let (Some(d), Some(e)) = (
-                self.dq.get_mut(j),
-                self.wq.get_mut(j).and_then(|r| r.get_mut(j)),
-            ) {
+            if let (Some(d), Some(e)) =
+                (weight.get_mut(j), q.w.get_mut(j).and_then(|r| r.get_mut(j)))
+            {
                 *d = if pos { dj } else { T::zero() };
                 *e = T::one();
             }
         }
+        // Keep the weighted columns, moved left in each row (a kept column's index is at
+        // least its position, so moving in ascending order reads before it writes).
+        for (m, &wm) in weight.iter().enumerate() {
+            if wm > T::zero() {
+                if let (Some(c), Some(d)) = (q.cols.get_mut(q.n), q.dq.get_mut(q.n)) {
+                    *c = m as u8;
+                    *d = wm;
+                }
+                let t = q.n;
+                for row in q.w.iter_mut() {
+                    if let Some(v) = row.get(m).copied() {
+                        if let Some(e) = row.get_mut(t) {
+                            *e = v;
+                        }
+                    }
+                }
+                q.n += 1;
+            }
+        }
+        let mut t = 0;
+        for (i, f) in q.first.iter_mut().enumerate() {
+            while q
+                .cols
+                .get(..q.n)
+                .and_then(|c| c.get(t))
+                .is_some_and(|&c| usize::from(c) < i)
+            {
+                t += 1;
+            }
+            *f = t as u8;
+        }
+        q
     }
 
-    fn q_at(&self, i: usize, j: usize) -> T {
-        self.wq
+    fn at(&self, i: usize, j: usize) -> T {
+        self.w
             .get(i)
             .and_then(|r| r.get(j))
             .copied()
             .unwrap_or_else(T::zero)
     }
+}
 
-    /// The modified weighted Gram-Schmidt orthogonalization (Thornton): the rows of `W`
-    /// from the last up, each earlier row made `Dw`-orthogonal to it, give `U` (written
-    /// column by column into `u`, column-major) and `D` (into `d`, which holds the old
-    /// `D`, the first part's weights, on entry). Each variance below `floor` is raised to
-    /// it; returns how many were.
-    fn orthogonalize(&mut self, u: &mut [T], d: &mut [T; N], floor: T) -> u32 {
-        let dw = *d;
-        let mut clamped = 0;
-        for j in (0..N).rev() {
-            let l = self.lo.get(j).copied().unwrap_or(N);
-            let (top, rest) = self.w.split_at_mut(j);
-            let (qtop, qrest) = self.wq.split_at_mut(j);
-            let (Some(wj), Some(qj)) = (rest.first(), qrest.first()) else {
-                continue;
-            };
-            let (wj, qj) = (wj.get(l..).unwrap_or(&[]), qj.get(j..).unwrap_or(&[]));
-            // c = Dw w_j over the row's non-zeros.
-            let mut cu = [T::zero(); N];
-            let mut cq = [T::zero(); N];
-            for ((c, &w), &dd) in cu.iter_mut().zip(wj).zip(dw.get(l..).unwrap_or(&[])) {
-                *c = dd * w;
+/// Column-major unit upper triangular `U` (entries above the diagonal) turned in place
+/// into its rows, row-major: row `i` at `i N`, `1` on the diagonal, zeros before it: the
+/// rows of `W = Φ U` where Φ is the identity.
+#[inline(always)]
+fn rows_of_u<T: Real, const N: usize>(u: &mut [T]) {
+    for i in 0..N {
+        for k in i..N {
+            let lower = u.get(k * N + i).copied().unwrap_or_else(T::zero);
+            if let Some(e) = u.get_mut(i * N + k) {
+                *e = if k == i { T::one() } else { lower };
             }
-            for ((c, &w), &dd) in cq.iter_mut().zip(qj).zip(self.dq.get(j..).unwrap_or(&[])) {
-                *c = dd * w;
-            }
-            let dj = dot(wj, &cu) + dot(qj, &cq);
-            let col = u.get_mut(j * N..j * N + j).unwrap_or(&mut []);
-            if dj > T::zero() {
-                let inv = T::one() / dj;
-                let rows = top.iter_mut().zip(qtop.iter_mut()).zip(self.lo.iter_mut());
-                for (((wi, qi), lo), uij) in rows.zip(col.iter_mut()) {
-                    let (wi, qi) = (
-                        wi.get_mut(l..).unwrap_or(&mut []),
-                        qi.get_mut(j..).unwrap_or(&mut []),
-                    );
-                    let a = (dot(wi, &cu) + dot(qi, &cq)) * inv;
-                    *uij = a;
-                    if a != T::zero() {
-                        axpy(wi, -a, wj);
-                        axpy(qi, -a, qj);
-                        *lo = (*lo).min(l);
-                    }
+            if k != i {
+                if let Some(e) = u.get_mut(k * N + i) {
+                    *e = T::zero();
                 }
-            } else {
-                col.fill(T::zero());
-            }
-            if let Some(e) = d.get_mut(j) {
-                *e = if dj < floor {
-                    clamped += 1;
-                    floor
-                } else {
-                    dj
-                };
             }
         }
-        clamped
     }
+}
+
+/// The modified weighted Gram-Schmidt orthogonalization (Thornton) of
+/// `W = [W_1 | W_Q]` with weights `diag(D, D_Q)`: the rows of `W_1` in `u` (row-major,
+/// row `i` zero before column `lo[i]`), `D` in `d`, `W_Q` in `q`. The rows from the last
+/// up, each earlier row made `Dw`-orthogonal to it, give `U` and `D` with
+/// `U D Uᵀ = W Dw Wᵀ`: once row `j` is used its place in `u` takes column `j` of `U`, so
+/// `u` ends column-major like the filter's `U`. Each `D_j` below `floor` is raised to
+/// it; returns how many were.
+///
+/// States from `t0` on are *static*: their rows of W are U's (Φ the identity there) and
+/// take no noise. Their pivots then leave D and their rows as they are, and take each
+/// earlier row's entry in their column as is (the row of U after the orthogonalization
+/// against them is the unit row, so `a_ij = w_ij`): those columns of `U` are W's,
+/// moved into place, with no arithmetic (the 33-state layout's calibration constants).
+fn orthogonalize<T: Real, const N: usize>(
+    u: &mut [T],
+    lo: &mut [u8; N],
+    q: &mut NoisePart<T, N>,
+    d: &mut [T],
+    floor: T,
+    t0: usize,
+) -> u32 {
+    let mut dw = [T::zero(); N];
+    dw.copy_from_slice(d.get(..N).unwrap_or(&[]));
+    let mut clamped = 0;
+    let nq = q.n;
+    let t0 = t0.min(N);
+    for j in (t0..N).rev() {
+        let mut col = [T::zero(); N];
+        for (i, c) in col.iter_mut().enumerate().take(j) {
+            *c = u.get(i * N + j).copied().unwrap_or_else(T::zero);
+        }
+        if let (Some(dst), Some(src)) = (u.get_mut(j * N..j * N + j), col.get(..j)) {
+            dst.copy_from_slice(src);
+        }
+    }
+    for j in (0..t0).rev() {
+        let l = lo.get(j).map_or(N, |&v| usize::from(v));
+        let fq = q.first.get(j).map_or(nq, |&v| usize::from(v));
+        let (top, rest) = u.split_at_mut((j * N).min(u.len()));
+        let (qtop, qrest) = q.w.split_at_mut(j);
+        let (wj, qj) = (
+            rest.get(l..t0).unwrap_or(&[]),
+            qrest.first().and_then(|r| r.get(fq..nq)).unwrap_or(&[]),
+        );
+        // c = Dw w_j over the row's non-zeros.
+        let mut cu = [T::zero(); N];
+        let mut cq = [T::zero(); N];
+        for ((c, &w), &dd) in cu.iter_mut().zip(wj.iter()).zip(dw.get(l..).unwrap_or(&[])) {
+            *c = dd * w;
+        }
+        for ((c, &w), &dd) in cq.iter_mut().zip(qj).zip(q.dq.get(fq..).unwrap_or(&[])) {
+            *c = dd * w;
+        }
+        let dj = dot(wj, &cu) + dot(qj, &cq);
+        let mut col = [T::zero(); N];
+        if dj > T::zero() {
+            let inv = T::one() / dj;
+            let rows = top.chunks_exact_mut(N).zip(qtop.iter_mut());
+            for (((wi, qi), lo_i), uij) in rows.zip(lo.iter_mut()).zip(col.iter_mut()) {
+                let (wi, qi) = (
+                    wi.get_mut(l..t0).unwrap_or(&mut []),
+                    qi.get_mut(fq..nq).unwrap_or(&mut []),
+                );
+                let a = (dot(wi, &cu) + dot(qi, &cq)) * inv;
+                *uij = a;
+                if a != T::zero() {
+                    axpy(wi, -a, wj);
+                    axpy(qi, -a, qj);
+                    *lo_i = (*lo_i).min(l as u8);
+                }
+            }
+        }
+        // Row j is used: its place takes column j of U.
+        if let (Some(dst), Some(src)) = (rest.get_mut(..j), col.get(..j)) {
+            dst.copy_from_slice(src);
+        }
+        if let Some(e) = d.get_mut(j) {
+            *e = if dj < floor {
+                clamped += 1;
+                floor
+            } else {
+                dj
+            };
+        }
+    }
+    clamped
 }
 
 impl<T: Real, const N: usize> Kalman<T, N> {
@@ -664,23 +734,24 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// a recording and predict the innovations of the rest. (A time update with Φ zero on
     /// those rows and Q the floor there, the estimate kept.)
     pub fn freeze(&mut self, indices: core::ops::Range<usize>) {
-        let mut g = Gram::<T, N>::of_u(self.u.as_slice());
-        for i in indices {
-            if let (Some(row), Some(lo), Some(q)) =
-                (g.w.get_mut(i), g.lo.get_mut(i), g.wq.get_mut(i))
-            {
-                row.fill(T::zero());
-                *lo = N;
-                if let Some(e) = q.get_mut(i) {
-                    *e = self.floor;
+        let floor = self.floor;
+        let mut q = NoisePart::<T, N>::new(|w| {
+            for i in indices.clone() {
+                if let Some(e) = w.get_mut(i).and_then(|r| r.get_mut(i)) {
+                    *e = floor;
                 }
             }
+        });
+        let u = self.u.as_mut_slice();
+        rows_of_u::<T, N>(u);
+        let mut lo: [u8; N] = core::array::from_fn(|i| i as u8);
+        for i in indices {
+            if let (Some(row), Some(l)) = (u.get_mut(i * N..(i + 1) * N), lo.get_mut(i)) {
+                row.fill(T::zero());
+                *l = N as u8;
+            }
         }
-        g.factor_q();
-        let mut d = [T::zero(); N];
-        d.copy_from_slice(self.d.as_slice());
-        g.orthogonalize(self.u.as_mut_slice(), &mut d, self.floor);
-        self.d.as_mut_slice().copy_from_slice(&d);
+        orthogonalize(u, &mut lo, &mut q, self.d.as_mut_slice(), floor, N);
     }
 
     /// Scales state `i` by `d > 0`: `x_i ← d x_i`, row and column `i` of P by `d` (`P_ii`
@@ -723,13 +794,82 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         phi: &Transition<T, N, R>,
         q: &Noise<T, N, P>,
     ) {
+        let inv = self.inv_scale.as_slice();
+        let at = |v: &[T], i: usize| v.get(i).copied().unwrap_or_else(T::zero);
+        let qs = |i: usize, j: usize, v: T| v * at(inv, i) * at(inv, j);
+        let (q_diag, q_pairs) = (&q.diag, &q.pairs);
+        let mut check = T::zero();
+        for (i, &qd) in q_diag.iter().enumerate() {
+            check += qs(i, i, qd);
+        }
+        for &(i, j, v) in q_pairs.iter() {
+            check += qs(i, j, v);
+        }
+        if !check.is_finite() {
+            self.health.non_finite += 1;
+            return;
+        }
+        let Some(mut lo) = self.phi_u_rows(phi) else {
+            self.health.non_finite += 1;
+            return;
+        };
+        // Q_s = S⁻¹ Q S⁻¹ on the upper triangle, factored.
+        let inv = self.inv_scale.as_slice();
+        let qs = |i: usize, j: usize, v: T| v * at(inv, i) * at(inv, j);
+        let mut q = NoisePart::<T, N>::new(|w| {
+            for (i, (row, &qd)) in w.iter_mut().zip(q_diag.iter()).enumerate() {
+                if let Some(e) = row.get_mut(i) {
+                    *e = qs(i, i, qd);
+                }
+            }
+            for &(i, j, v) in q_pairs.iter() {
+                if let Some(e) = w.get_mut(i.min(j)).and_then(|row| row.get_mut(i.max(j))) {
+                    *e += qs(i, j, v);
+                }
+            }
+        });
+        // The static states at the end (see [`orthogonalize`]).
+        let mut t0 = N;
+        while let Some(j) = t0.checked_sub(1) {
+            let noisy = q_diag.get(j).is_some_and(|&v| v != T::zero())
+                || q_pairs
+                    .iter()
+                    .any(|&(a, b, v)| (a == j || b == j) && v != T::zero());
+            if noisy || phi.index.contains(&j) {
+                break;
+            }
+            t0 = j;
+        }
+        self.health.variance_clamped += orthogonalize(
+            self.u.as_mut_slice(),
+            &mut lo,
+            &mut q,
+            self.d.as_mut_slice(),
+            self.floor,
+            t0,
+        );
+    }
+
+    /// The time update's `x ← Φ x` and the first part of its Gram-Schmidt matrix,
+    /// `W_1 = Φ_s U` (Φ_s(i, k) = Φ(i, k) s_k / s_i), written in U's place, row-major
+    /// (see [`orthogonalize`]); returns where each row's non-zeros start. The rows of Φ
+    /// that are not the identity's, over their non-zero columns, are formed first from
+    /// U's rows (column-major: one element per column). `None` (nothing changed) if one of them
+    /// or `Φ x` is not finite.
+    #[inline(always)]
+    fn phi_u_rows<const R: usize>(&mut self, phi: &Transition<T, N, R>) -> Option<[u8; N]> {
         let (sc, inv) = (self.scale.as_slice(), self.inv_scale.as_slice());
         let at = |v: &[T], i: usize| v.get(i).copied().unwrap_or_else(T::zero);
-        let mut g = Gram::<T, N>::of_u(self.u.as_slice());
-        let u = self.u.as_slice();
+        let mut active = [[T::zero(); N]; R];
+        let mut active_lo = [N as u8; R];
         let mut x_new = [T::zero(); R];
         let mut check = T::zero();
-        for (r, xn) in x_new.iter_mut().enumerate() {
+        let u = self.u.as_slice();
+        let rows = active
+            .iter_mut()
+            .zip(active_lo.iter_mut())
+            .zip(x_new.iter_mut());
+        for (r, ((row, lo), xn)) in rows.enumerate() {
             let (Some(&i), Some(vals), Some(cols), Some(&n)) = (
                 phi.index.get(r),
                 phi.values.get(r),
@@ -738,13 +878,8 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             ) else {
                 continue;
             };
-            let (Some(row), Some(lo)) = (g.w.get_mut(i), g.lo.get_mut(i)) else {
-                continue;
-            };
-            // Row i of Φ_s U, Φ_s(i, k) = Φ(i, k) s_k / s_i, over the non-zero columns.
-            row.fill(T::zero());
             let cols = cols.get(..n).unwrap_or(&[]);
-            *lo = cols.first().map_or(N, |&k| usize::from(k));
+            *lo = cols.first().copied().unwrap_or(N as u8);
             let inv_i = at(inv, i);
             for &k in cols {
                 let k = usize::from(k);
@@ -755,35 +890,24 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             check += *xn;
             check = sum_into(check, row);
         }
-        // Q_s = S⁻¹ Q S⁻¹ on the upper triangle, then factored.
-        let qs = |i: usize, j: usize, v: T| v * at(inv, i) * at(inv, j);
-        for (i, (row, &qd)) in g.wq.iter_mut().zip(q.diag.iter()).enumerate() {
-            if let Some(e) = row.get_mut(i) {
-                *e = qs(i, i, qd);
-                check += *e;
-            }
-        }
-        for &(i, j, v) in q.pairs.iter() {
-            let v = qs(i, j, v);
-            if let Some(e) = g.wq.get_mut(i.min(j)).and_then(|row| row.get_mut(i.max(j))) {
-                *e += v;
-                check += v;
-            }
-        }
         if !check.is_finite() {
-            self.health.non_finite += 1;
-            return;
+            return None;
         }
-        g.factor_q();
         for (&xn, &i) in x_new.iter().zip(phi.index.iter()) {
             if let Some(x) = self.xs.get_mut(i) {
                 *x = xn;
             }
         }
-        let mut d = [T::zero(); N];
-        d.copy_from_slice(self.d.as_slice());
-        self.health.variance_clamped += g.orthogonalize(self.u.as_mut_slice(), &mut d, self.floor);
-        self.d.as_mut_slice().copy_from_slice(&d);
+        let u = self.u.as_mut_slice();
+        rows_of_u::<T, N>(u);
+        let mut lo: [u8; N] = core::array::from_fn(|i| i as u8);
+        for ((row, &l), &i) in active.iter().zip(active_lo.iter()).zip(phi.index.iter()) {
+            if let (Some(dst), Some(e)) = (u.get_mut(i * N..(i + 1) * N), lo.get_mut(i)) {
+                dst.copy_from_slice(row);
+                *e = l;
+            }
+        }
+        Some(lo)
     }
 
     /// Sequential scalar update with measurement row `h` (physical units), measurement
@@ -1085,5 +1209,73 @@ mod tests {
         assert!((kf.covariance() - p1).norm() < 1e-12 * p1.norm());
         let ps = kf.scaled_covariance();
         assert_eq!(ps, ps.transpose());
+    }
+
+    #[test]
+    fn freeze_zeroes_the_rows_and_columns_and_keeps_the_rest() {
+        let p0 = p0_nine();
+        let mut kf = Kalman::<f64, 9>::new(&p0, 1e-6);
+        kf.update_scalar(
+            &nalgebra::SVector::<f64, 9>::from_column_slice(&[
+                1.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0,
+            ]),
+            1.0,
+            0.5,
+            1e6,
+        );
+        let (x, p) = (kf.state(), kf.scaled_covariance());
+        kf.freeze(2..5);
+        let ps = kf.scaled_covariance();
+        for i in 0..9 {
+            for j in 0..9 {
+                let frozen = (2..5).contains(&i) || (2..5).contains(&j);
+                let want = match (frozen, i == j) {
+                    (true, true) => 1e-6,
+                    (true, false) => 0.0,
+                    (false, _) => p[(i, j)],
+                };
+                assert!(
+                    (ps[(i, j)] - want).abs() < 1e-12,
+                    "({i}, {j}): {}",
+                    ps[(i, j)]
+                );
+            }
+        }
+        assert_eq!(kf.state(), x);
+    }
+
+    #[test]
+    fn predict_with_static_states_at_the_end_equals_dense_propagation() {
+        // States 5–8 are static (identity rows, no noise) and read by the active rows 0
+        // and 2: their columns of U are moved into place, not orthogonalized.
+        let p0 = p0_nine();
+        let mut kf = Kalman::<f64, 9>::new(&p0, 1e-12);
+        kf.update_scalar(
+            &nalgebra::SVector::<f64, 9>::from_column_slice(&[
+                1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.3, 1.0, 0.0,
+            ]),
+            1.0,
+            0.5,
+            1e6,
+        );
+        let (x, p) = (kf.state(), kf.covariance());
+        let mut phi = Transition::<f64, 9, 2>::new([0, 2]);
+        phi.set_row(0, &[1.0, 0.1, 0.0, 0.0, 0.0, 0.2, 0.0, 0.05, 0.0]);
+        phi.set_row(1, &[0.0, 0.2, 0.9, 0.0, 0.0, 0.0, 0.4, 0.0, 0.1]);
+        let q = Noise::<f64, 9, 1> {
+            diag: [0.01, 0.02, 0.03, 0.04, 0.05, 0.0, 0.0, 0.0, 0.0],
+            pairs: [(1, 3, 0.002)],
+        };
+        kf.predict(&phi, &q);
+        let dense = nalgebra::SMatrix::<f64, 9, 9>::from_fn(|i, j| phi.get(i, j));
+        let mut qd =
+            nalgebra::SMatrix::<f64, 9, 9>::from_diagonal(&nalgebra::SVector::from(q.diag));
+        for (i, j, v) in q.pairs {
+            qd[(i, j)] = v;
+            qd[(j, i)] = v;
+        }
+        let (x1, p1) = (dense * x, dense * p * dense.transpose() + qd);
+        assert!((kf.state() - x1).norm() < 1e-12 * x1.norm());
+        assert!((kf.covariance() - p1).norm() < 1e-12 * p1.norm());
     }
 }
