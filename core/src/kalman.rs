@@ -1,12 +1,14 @@
-//! A fixed-size Kalman filter with the habits of PX4's EKF2: sequential scalar updates,
-//! only the non-zero parts of the transition used in the covariance propagation,
-//! symmetry forced, variances clamped to floors, innovation gating by test ratio,
-//! and every anomaly counted in health flags.
+//! A fixed-size Kalman filter with the habits of PX4's EKF2 (sequential scalar updates,
+//! variances held to floors, innovation gating by test ratio, every anomaly counted in
+//! health flags), its covariance kept as UD factors (Bierman's update, Thornton's time
+//! update) so that it stays positive definite in `f32` whatever the correlations.
 //!
 //! States are held *scaled*: `x = S x_s` with `S = diag(scale)`, where the scales are
 //! the initial standard deviations. In f32 a gyro bias variance of 1e-13 and a
 //! velocity variance of 1e-2 would otherwise share one covariance matrix; scaled,
-//! every diagonal starts at 1, which is what keeps f32 symmetric positive definite.
+//! every diagonal starts at 1. Scaling does not help with correlations near 1 (a state
+//! known far better than the states it is tied to): the factors carry those (see
+//! [`Kalman`]).
 
 use crate::mat::{self, vget};
 use crate::real::Real;
