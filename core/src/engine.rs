@@ -10,7 +10,8 @@ use crate::flexure::FlexureModel;
 use crate::kalman::{Health, Kalman, ScalarUpdate};
 use crate::mat::{self, vget};
 use crate::model::{
-    self, IntervalMeans, LeverBending, ProcessNoise, StateMat, BA, BG, MU, N, PSI, TH, THD, V,
+    self, IntervalMeans, LeverBending, ProcessNoise, StateMat, StateVec, BA, BG, MU, N, PSI, TH,
+    THD, V,
 };
 use crate::probe::{self, Phase};
 use crate::real::Real;
@@ -385,7 +386,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             return Err(EngineError::TooManyStates);
         }
         self.kf
-            .restart(cfg.variance_floor, |p| Self::initial_covariance(&cfg, p));
+            .restart_factored(cfg.variance_floor, |u, d| Self::initial_factor(&cfg, u, d));
         self.kf.health = Health::default();
         self.strapdown = None;
         self.buffer.clear();
@@ -408,14 +409,24 @@ impl<T: Real, const S: usize> Engine<T, S> {
         Ok(())
     }
 
-    /// The initial covariance. The slave's attitude is initialized from the master's
-    /// through μ̂₀, so its error is ψ₀ = −J_r(μ̂₀)(δμ + θ₀) plus the master's attitude
-    /// noise: ψ is correlated with δμ and θ from the start, and P₀ says so. Written into
-    /// `p` (the filter's own storage: see [`Kalman::restart`]).
-    fn initial_covariance(cfg: &EngineConfig<T>, p: &mut StateMat<T, S>) {
-        p.fill(T::zero());
+    /// The initial covariance, as its factors `P₀ = U D Uᵀ` (see [`Kalman`]). The slave's
+    /// attitude is initialized from the master's through μ̂₀, so its error is
+    /// ψ₀ = −J_r(μ̂₀)(δμ + θ₀) plus the master's attitude noise: ψ is correlated with δμ
+    /// and θ from the start, and P₀ says so. As factors that is row ψ of U, `−J` at δμ's
+    /// and θ's columns, and `D_ψ` the master's attitude noise: given the misalignment and
+    /// the flexure, ψ is known to the master's precision, which a formed `P₀` in `f32`
+    /// cannot carry (`P_ψψ ≈ J P_μμ Jᵀ` to 1 − 10⁻⁸ with a 2 µrad master). Each flexure
+    /// axis's `(θ, θ̇)` pair: θ given θ̇. Equal to the formed `P₀` (tested,
+    /// `initial_factor_is_the_formed_covariance`). Written into the filter's own storage (`u`, `d`:
+    /// see [`Kalman::restart_factored`]).
+    fn initial_factor(cfg: &EngineConfig<T>, u: &mut StateMat<T, S>, d: &mut StateVec<T, S>) {
         let s = &cfg.initial_sigma;
         let sq = |x: T| x * x;
+        let mut set_d = |i: usize, v: T| {
+            if let Some(e) = d.get_mut(i) {
+                *e = v;
+            }
+        };
         let blocks = [
             (V, sq(s.velocity_mps)),
             (MU, sq(s.misalignment_rad)),
@@ -424,72 +435,52 @@ impl<T: Real, const S: usize> Engine<T, S> {
         ];
         for (b, var) in blocks {
             for k in 0..3 {
-                mat::set(p, b + k, b + k, var);
+                set_d(b + k, var);
             }
         }
         for (axis, ar) in cfg.flexure.axes.iter().enumerate() {
             let (i, j) = (TH + axis, THD + axis);
             match ar.stationary_covariance(cfg.flexure.period_s) {
-                Some(c) => mat::set_pair(p, i, j, &c),
+                Some(c) => {
+                    let (a, b, e) = (mat::get(&c, 0, 0), mat::get(&c, 0, 1), mat::get(&c, 1, 1));
+                    set_d(j, e);
+                    if e > T::zero() {
+                        mat::set(u, i, j, b / e);
+                        set_d(i, (a - b * b / e).max(T::zero()));
+                    } else {
+                        set_d(i, a);
+                    }
+                }
                 None => {
                     let t = cfg.flexure.period_s;
-                    mat::set(p, i, i, sq(s.flexure_rad));
-                    mat::set(p, j, j, sq(s.flexure_rad / t));
+                    set_d(i, sq(s.flexure_rad));
+                    set_d(j, sq(s.flexure_rad / t));
                 }
             }
         }
         // Augmented blocks: their priors; states past them are inert (unit variance).
         for b in cfg.augmentation.blocks() {
             for k in 0..b.effect.states() {
-                mat::set(p, b.offset + k, b.offset + k, sq(b.prior_sigma));
+                set_d(b.offset + k, sq(b.prior_sigma));
             }
         }
         for i in cfg.augmentation.dimension()..S {
-            mat::set(p, i, i, T::one());
+            set_d(i, T::one());
         }
-        // ψ = −J (δμ + θ) + n: the covariance through that linear map, written out. P₀ has
-        // no ψ block and its δμ block is diagonal, so only ψ's rows and columns change:
-        // P_ψμ = −J P_μμ, P_ψθ = −J P_θθ, P_ψθ̇ = −J P_θθ̇ (the flexure blocks are per axis),
-        // P_ψψ = J (P_μμ + P_θθ) Jᵀ + σ_att². No S×S product: at Config the board builds
-        // this on its stack.
+        // ψ = −J (δμ + θ) + n. U maps the independent parts e (variances D) to the states,
+        // x = U e, and θ = e_θ + U(θ, θ̇) e_θ̇: so ψ's row is −J at δμ and θ and
+        // −J U(θ, θ̇) at θ̇.
         let j = right_jacobian(&cfg.initial_misalignment_rad);
-        let jg = |r: usize, c: usize| mat::get(&j, r, c);
-        let (mut mu_var, mut th_var, mut th_thd) = ([T::zero(); 3], [T::zero(); 3], [T::zero(); 3]);
-        for k in 0..3 {
-            if let (Some(m), Some(t), Some(x)) =
-                (mu_var.get_mut(k), th_var.get_mut(k), th_thd.get_mut(k))
-            {
-                *m = mat::get(p, MU + k, MU + k);
-                *t = mat::get(p, TH + k, TH + k);
-                *x = mat::get(p, TH + k, THD + k);
-            }
-        }
-        let at = |v: &[T; 3], k: usize| v.get(k).copied().unwrap_or_else(T::zero);
         for r in 0..3 {
             for c in 0..3 {
-                let (mu, th, thd) = (at(&mu_var, c), at(&th_var, c), at(&th_thd, c));
-                for (col, v) in [
-                    (MU + c, -jg(r, c) * mu),
-                    (TH + c, -jg(r, c) * th),
-                    (THD + c, -jg(r, c) * thd),
-                ] {
-                    mat::set(p, PSI + r, col, v);
-                    mat::set(p, col, PSI + r, v);
-                }
+                let v = -mat::get(&j, r, c);
+                mat::set(u, PSI + r, MU + c, v);
+                mat::set(u, PSI + r, TH + c, v);
+                let w = v * mat::get(u, TH + c, THD + c);
+                mat::set(u, PSI + r, THD + c, w);
             }
-        }
-        for r in 0..3 {
-            for c in 0..3 {
-                let mut v = T::zero();
-                for k in 0..3 {
-                    v += jg(r, k) * (at(&mu_var, k) + at(&th_var, k)) * jg(c, k);
-                }
-                if r == c {
-                    let sigma = cfg.measurement_noise.attitude_rad.get(r).copied();
-                    v += sq(sigma.unwrap_or_else(T::zero));
-                }
-                mat::set(p, PSI + r, PSI + c, v);
-            }
+            let sigma = cfg.measurement_noise.attitude_rad.get(r).copied();
+            set_d(PSI + r, sq(sigma.unwrap_or_else(T::zero)));
         }
     }
 
@@ -1235,7 +1226,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
     fn reset(&mut self) {
         let cfg = self.cfg;
         self.kf
-            .restart(cfg.variance_floor, |p| Self::initial_covariance(&cfg, p));
+            .restart_factored(cfg.variance_floor, |u, d| Self::initial_factor(&cfg, u, d));
         self.strapdown = None;
         self.buffer.clear();
         self.epoch = None;

@@ -1,12 +1,14 @@
-//! A fixed-size Kalman filter with the habits of PX4's EKF2: sequential scalar updates,
-//! only the non-zero parts of the transition used in the covariance propagation,
-//! symmetry forced, variances clamped to floors, innovation gating by test ratio,
-//! and every anomaly counted in health flags.
+//! A fixed-size Kalman filter with the habits of PX4's EKF2 (sequential scalar updates,
+//! variances held to floors, innovation gating by test ratio, every anomaly counted in
+//! health flags), its covariance kept as UD factors (Bierman's update, Thornton's time
+//! update) so that it stays positive definite in `f32` whatever the correlations.
 //!
 //! States are held *scaled*: `x = S x_s` with `S = diag(scale)`, where the scales are
 //! the initial standard deviations. In f32 a gyro bias variance of 1e-13 and a
 //! velocity variance of 1e-2 would otherwise share one covariance matrix; scaled,
-//! every diagonal starts at 1, which is what keeps f32 symmetric positive definite.
+//! every diagonal starts at 1. Scaling does not help with correlations near 1 (a state
+//! known far better than the states it is tied to): the factors carry those (see
+//! [`Kalman`]).
 
 use crate::mat::{self, vget};
 use crate::real::Real;
@@ -153,32 +155,30 @@ pub struct Noise<T, const N: usize, const P: usize> {
     pub pairs: [(usize, usize, T); P],
 }
 
-/// The filter: scaled state and covariance of dimension `N`.
+/// The filter: scaled state, and the scaled covariance as its UD factors (Bierman),
+/// dimension `N`.
 ///
-/// Only the upper triangle of the scaled covariance (`(i, j)`, `i ≤ j`) is kept: every
-/// operation reads and writes that triangle, so the matrix is symmetric by construction and
-/// each update does half the work.
+/// `P_s = U D Uᵀ`, `U` unit upper triangular, `D` diagonal and never negative: `D_j` is the
+/// variance of state `j` given the states after it, and `U(i, j)` how state `i` follows
+/// state `j`. A state known far better than the states it is tied to (a precise master
+/// attitude ties ψ to the misalignment and the flexure to 1 − 10⁻⁸) keeps its small
+/// conditional variance in `D`, where a plain `P` in `f32` (ε 6·10⁻⁸) loses it in the
+/// rounding of `P_ψψ ≈ P_μμ`: `P` built from the factors is positive semi-definite by
+/// construction, whatever the precision.
 #[derive(Clone, Debug)]
 pub struct Kalman<T: Real, const N: usize> {
     xs: SVector<T, N>,
-    /// Column-major; meaningful on and above the diagonal only.
-    ps: SMatrix<T, N, N>,
+    /// `U(i, j)`, `i < j`, at `i + j N` (column-major, strictly above the diagonal; the
+    /// unit diagonal and the lower triangle are never read).
+    u: SMatrix<T, N, N>,
+    /// `D_j`.
+    d: SVector<T, N>,
     scale: SVector<T, N>,
     /// `1 / scale`, so that scaling Φ and Q takes no division.
     inv_scale: SVector<T, N>,
     floor: T,
     /// Health counters.
     pub health: Health,
-}
-
-/// Position of `(i, j)` in the stored triangle (column-major, `min ≤ max`).
-#[inline(always)]
-fn upper<const N: usize>(i: usize, j: usize) -> usize {
-    if i <= j {
-        j * N + i
-    } else {
-        i * N + j
-    }
 }
 
 /// `dst[i] += a · src[i]` over the shorter of the two, four at a time: the board's image is
@@ -206,21 +206,27 @@ fn axpy<T: Real>(dst: &mut [T], a: T, src: &[T]) {
     }
 }
 
-/// `acc[m] += f · P(k, m)` for every `m`, from the upper triangle `ps` (column-major, N×N):
-/// row k of P is column k above the diagonal and row k of the stored triangle from it on.
+/// `Σ a[i] b[i]` over the shorter of the two, four products per loop turn (two partial
+/// sums, added at the end).
 #[inline(always)]
-fn add_row<T: Real, const N: usize>(acc: &mut [T; N], f: T, ps: &[T], k: usize) {
-    let (head, tail) = acc.split_at_mut(k.min(N));
-    axpy(head, f, ps.get(k * N..).unwrap_or(&[]));
-    // Row k from the diagonal on: one element per column, N apart.
-    axpy_strided::<T, N>(tail, f, ps.get(k * N + k..).unwrap_or(&[]));
-}
-
-/// `dst[m] += a · src[m N]` for every `m` of `dst`: a row of the stored triangle, which
-/// is one element per column ([`each_strided`]).
-#[inline(always)]
-fn axpy_strided<T: Real, const N: usize>(dst: &mut [T], a: T, src: &[T]) {
-    each_strided::<T, N>(dst, src, |d, p| *d += a * p);
+fn dot<T: Real>(a: &[T], b: &[T]) -> T {
+    let n = a.len().min(b.len());
+    let (a, b) = (a.get(..n).unwrap_or(&[]), b.get(..n).unwrap_or(&[]));
+    let (mut s0, mut s1) = (T::zero(), T::zero());
+    let mut a4 = a.chunks_exact(4);
+    let mut b4 = b.chunks_exact(4);
+    for (x, y) in (&mut a4).zip(&mut b4) {
+        if let ([x0, x1, x2, x3], [y0, y1, y2, y3]) = (x, y) {
+            s0 += *x0 * *y0;
+            s1 += *x1 * *y1;
+            s0 += *x2 * *y2;
+            s1 += *x3 * *y3;
+        }
+    }
+    for (&x, &y) in a4.remainder().iter().zip(b4.remainder()) {
+        s0 += x * y;
+    }
+    s0 + s1
 }
 
 /// `op(&mut dst[m], src[m N])` for every `m` of `dst` (`src` holds at least
@@ -251,62 +257,16 @@ fn each_strided<T: Real, const N: usize>(dst: &mut [T], src: &[T], mut op: impl 
     }
 }
 
-/// `dst[m N] = src[m]` for every `m` of `src` (as far as `dst` reaches): a row of the
-/// stored triangle written, four at a time like [`each_strided`].
+/// `dst[m − k] ⊕= a U(k, m)` for `m ≥ k` (`dst` starts at column `k`; `U(k, k) = 1`), from
+/// `u` (column-major, N × N): row `k` of U is one element per column, N apart. With `op`
+/// the accumulation (`+=` of `a ·`) or the copy (`a` then 1).
 #[inline(always)]
-fn store_strided<T: Real, const N: usize>(dst: &mut [T], src: &[T]) {
-    let mut d = dst;
-    let mut s4 = src.chunks_exact(4);
-    for s in &mut s4 {
-        let w = d.get_mut(..=3 * N).unwrap_or(&mut []);
-        if let ([p0, p1, p2, p3], Some(w0)) = (s, w.first_mut()) {
-            *w0 = *p0;
-            if let Some(w1) = w.get_mut(N) {
-                *w1 = *p1;
-            }
-            if let Some(w2) = w.get_mut(2 * N) {
-                *w2 = *p2;
-            }
-            if let Some(w3) = w.get_mut(3 * N) {
-                *w3 = *p3;
-            }
-        }
-        d = d.get_mut(4 * N..).unwrap_or(&mut []);
-    }
-    for &p in s4.remainder() {
-        if let Some(e) = d.first_mut() {
-            *e = p;
-        }
-        d = d.get_mut(N..).unwrap_or(&mut []);
-    }
-}
-
-/// The gain `k_i = ph_i / s` (given `inv_s = 1 / s`) and the state step
-/// `x_i += k_i ν`, four elements per loop turn (each element's arithmetic the plain loop's).
-#[inline(always)]
-fn gain_step<T: Real>(k: &mut [T], x: &mut [T], ph: &[T], inv_s: T, innovation: T) {
-    let mut k4 = k.chunks_exact_mut(4);
-    let mut x4 = x.chunks_exact_mut(4);
-    let mut p4 = ph.chunks_exact(4);
-    for ((kc, xc), pc) in (&mut k4).zip(&mut x4).zip(&mut p4) {
-        if let ([k0, k1, k2, k3], [x0, x1, x2, x3], [p0, p1, p2, p3]) = (kc, xc, pc) {
-            *k0 = *p0 * inv_s;
-            *k1 = *p1 * inv_s;
-            *k2 = *p2 * inv_s;
-            *k3 = *p3 * inv_s;
-            *x0 += *k0 * innovation;
-            *x1 += *k1 * innovation;
-            *x2 += *k2 * innovation;
-            *x3 += *k3 * innovation;
-        }
-    }
-    let rest = k4
-        .into_remainder()
-        .iter_mut()
-        .zip(x4.into_remainder().iter_mut());
-    for ((ki, xi), &pi) in rest.zip(p4.remainder().iter()) {
-        *ki = pi * inv_s;
-        *xi += *ki * innovation;
+fn add_urow<T: Real, const N: usize>(dst: &mut [T], a: T, u: &[T], k: usize) {
+    if let Some((first, rest)) = dst.split_first_mut() {
+        *first += a;
+        each_strided::<T, N>(rest, u.get((k + 1) * N + k..).unwrap_or(&[]), |e, p| {
+            *e += a * p
+        });
     }
 }
 
@@ -326,113 +286,258 @@ fn sum_into<T: Real>(mut acc: T, v: &[T]) -> T {
     acc
 }
 
-/// Rows of Φ that [`Kalman::predict`] propagates together when they share their columns.
-const GROUP: usize = 6;
-
-/// `acc_d[m] += f_d · P(k, m)` for the `GROUP` rows `d` and every `m`, from the upper
-/// triangle `ps` (column-major, N×N): row k of P gathered once, then each element of it
-/// multiplied into all the rows (each element's arithmetic is [`add_row`]'s).
+/// One column of Bierman's update: for every row `i` above the column's diagonal,
+/// `U(i, j) ← U(i, j) + λ b_i` and `b_i ← b_i + U(i, j)_old g_j` (four rows per loop turn;
+/// each element's arithmetic the plain loop's).
 #[inline(always)]
-fn add_row_group<T: Real, const N: usize>(
-    acc: &mut [[T; N]; GROUP],
-    f: &[T; GROUP],
-    ps: &[T],
-    k: usize,
-) {
-    let mut row = [T::zero(); N];
-    let (head, tail) = row.split_at_mut(k.min(N));
-    if let Some(src) = ps.get(k * N..k * N + head.len()) {
-        head.copy_from_slice(src);
+fn bierman_column<T: Real>(col: &mut [T], b: &mut [T], lambda: T, g: T) {
+    let mut c4 = col.chunks_exact_mut(4);
+    let mut b4 = b.chunks_exact_mut(4);
+    for (c, bb) in (&mut c4).zip(&mut b4) {
+        if let ([c0, c1, c2, c3], [b0, b1, b2, b3]) = (c, bb) {
+            let (u0, u1, u2, u3) = (*c0, *c1, *c2, *c3);
+            *c0 = u0 + lambda * *b0;
+            *c1 = u1 + lambda * *b1;
+            *c2 = u2 + lambda * *b2;
+            *c3 = u3 + lambda * *b3;
+            *b0 += u0 * g;
+            *b1 += u1 * g;
+            *b2 += u2 * g;
+            *b3 += u3 * g;
+        }
     }
-    each_strided::<T, N>(tail, ps.get(k * N + k..).unwrap_or(&[]), |e, p| *e = p);
-    let [a0, a1, a2, a3, a4, a5] = acc;
-    let [f0, f1, f2, f3, f4, f5] = *f;
-    let rows = a0.iter_mut().zip(a1.iter_mut()).zip(a2.iter_mut());
-    let rows = rows
-        .zip(a3.iter_mut())
-        .zip(a4.iter_mut())
-        .zip(a5.iter_mut());
-    for ((((((e0, e1), e2), e3), e4), e5), &p) in rows.zip(row.iter()) {
-        *e0 += f0 * p;
-        *e1 += f1 * p;
-        *e2 += f2 * p;
-        *e3 += f3 * p;
-        *e4 += f4 * p;
-        *e5 += f5 * p;
+    for (c, bi) in c4.into_remainder().iter_mut().zip(b4.into_remainder()) {
+        let u0 = *c;
+        *c = u0 + lambda * *bi;
+        *bi += u0 * g;
     }
 }
 
-/// `P ← P − k phᵀ` on the upper triangle `ps` (column-major, N×N): column `j`, rows
-/// `i ≤ j`, `P(i, j) += (−ph_j) k_i`; each diagonal clamped to `floor` once written.
-/// Returns how many were clamped. Four columns at a time, sharing the loads of `k` and the
-/// loop (per column, setting up a loop cost about as much as its multiply-adds): their
-/// rows 0..=j together, then the three rows of the staggered top; the last `N mod 4`
-/// columns one by one.
-#[inline(always)]
-fn rank_one_downdate<T: Real, const N: usize>(
-    ps: &mut [T],
-    ph: &[T; N],
-    k: &[T; N],
-    floor: T,
-) -> u32 {
-    let mut clamped = 0;
-    let mut clamp = |d: Option<&mut T>| {
-        if let Some(d) = d {
-            if *d < floor {
-                *d = floor;
-                clamped += 1;
+/// The process noise's part of the weighted Gram-Schmidt matrix of a time update: `Q`'s
+/// UD factors `Q = U_Q D_Q U_Qᵀ`, row-major, only the columns with a positive weight kept
+/// (most states take no process noise: their columns would only add zeros).
+struct NoisePart<T, const N: usize> {
+    /// Row `i`: `U_Q(i, cols[t])` at `t`; zero before `first[i]`.
+    w: [[T; N]; N],
+    /// `D_Q` of the kept columns.
+    dq: [T; N],
+    /// The kept columns' states, ascending, `n` of them.
+    cols: [u8; N],
+    n: usize,
+    /// First kept column at or after state `i`.
+    first: [u8; N],
+}
+
+impl<T: Real, const N: usize> NoisePart<T, N> {
+    /// From `Q`'s upper triangle (row-major, written by `fill`): factored, a column's
+    /// non-zeros found and only they eliminated (Q is a diagonal and a few pairs). A pivot
+    /// that is not positive (a `Q` only semi-definite there) takes no column.
+    fn new(fill: impl FnOnce(&mut [[T; N]; N])) -> Self {
+        let mut q = Self {
+            w: [[T::zero(); N]; N],
+            dq: [T::zero(); N],
+            cols: [0; N],
+            n: 0,
+            first: [0; N],
+        };
+        fill(&mut q.w);
+        let mut weight = [T::zero(); N];
+        for j in (0..N).rev() {
+            let dj = q.at(j, j);
+            let mut nz = [0u8; N];
+            let mut n = 0;
+            for (i, row) in q.w.iter().enumerate().take(j) {
+                if row.get(j).is_some_and(|&v| v != T::zero()) {
+                    if let Some(e) = nz.get_mut(n) {
+                        *e = i as u8;
+                    }
+                    n += 1;
+                }
+            }
+            let nz = nz.get(..n).unwrap_or(&[]);
+            let pos = dj > T::zero();
+            if pos {
+                for (a, &i) in nz.iter().enumerate() {
+                    let qi = q.at(usize::from(i), j);
+                    for &k in nz.get(a..).unwrap_or(&[]) {
+                        let qk = q.at(usize::from(k), j);
+                        if let Some(e) =
+                            q.w.get_mut(usize::from(i))
+                                .and_then(|r| r.get_mut(usize::from(k)))
+                        {
+                            *e -= qi * qk / dj;
+                        }
+                    }
+                }
+            }
+            for &i in nz {
+                if let Some(e) = q.w.get_mut(usize::from(i)).and_then(|r| r.get_mut(j)) {
+                    *e = if pos { *e / dj } else { T::zero() };
+                }
+            }
+            if let (Some(d), Some(e)) =
+                (weight.get_mut(j), q.w.get_mut(j).and_then(|r| r.get_mut(j)))
+            {
+                *d = if pos { dj } else { T::zero() };
+                *e = T::one();
             }
         }
-    };
-    let at = |v: &[T; N], i: usize| v.get(i).copied().unwrap_or_else(T::zero);
-    let mut quads = ps.chunks_exact_mut(4 * N);
-    let mut j = 0;
-    for quad in &mut quads {
-        let (c0, rest) = quad.split_at_mut(N);
-        let (c1, rest) = rest.split_at_mut(N);
-        let (c2, c3) = rest.split_at_mut(N);
-        let (n0, n1, n2, n3) = (-at(ph, j), -at(ph, j + 1), -at(ph, j + 2), -at(ph, j + 3));
-        // Rows 0..=j of the four columns; `t*` are the rows below, from j + 1 on.
-        let (h0, _) = c0.split_at_mut((j + 1).min(N));
-        let (h1, t1) = c1.split_at_mut((j + 1).min(N));
-        let (h2, t2) = c2.split_at_mut((j + 1).min(N));
-        let (h3, t3) = c3.split_at_mut((j + 1).min(N));
-        let rows = h0.iter_mut().zip(h1.iter_mut()).zip(h2.iter_mut());
-        for (((x0, x1), x2), (x3, &ki)) in rows.zip(h3.iter_mut().zip(k.iter())) {
-            *x0 += n0 * ki;
-            *x1 += n1 * ki;
-            *x2 += n2 * ki;
-            *x3 += n3 * ki;
+        // Keep the weighted columns, moved left in each row (a kept column's index is at
+        // least its position, so moving in ascending order reads before it writes).
+        for (m, &wm) in weight.iter().enumerate() {
+            if wm > T::zero() {
+                if let (Some(c), Some(d)) = (q.cols.get_mut(q.n), q.dq.get_mut(q.n)) {
+                    *c = m as u8;
+                    *d = wm;
+                }
+                let t = q.n;
+                for row in q.w.iter_mut() {
+                    if let Some(v) = row.get(m).copied() {
+                        if let Some(e) = row.get_mut(t) {
+                            *e = v;
+                        }
+                    }
+                }
+                q.n += 1;
+            }
         }
-        if let ([y1, ..], [y2, z2, ..], [y3, z3, w3, ..]) = (t1, t2, t3) {
-            let (k1, k2, k3) = (at(k, j + 1), at(k, j + 2), at(k, j + 3));
-            *y1 += n1 * k1;
-            *y2 += n2 * k1;
-            *y3 += n3 * k1;
-            *z2 += n2 * k2;
-            *z3 += n3 * k2;
-            *w3 += n3 * k3;
-            clamp(Some(y1));
-            clamp(Some(z2));
-            clamp(Some(w3));
+        let mut t = 0;
+        for (i, f) in q.first.iter_mut().enumerate() {
+            while q
+                .cols
+                .get(..q.n)
+                .and_then(|c| c.get(t))
+                .is_some_and(|&c| usize::from(c) < i)
+            {
+                t += 1;
+            }
+            *f = t as u8;
         }
-        clamp(h0.last_mut());
-        j += 4;
+        q
     }
-    for col in quads.into_remainder().chunks_exact_mut(N) {
-        if let Some(col) = col.get_mut(..=j) {
-            axpy(col, -at(ph, j), k);
-            clamp(col.last_mut());
+
+    fn at(&self, i: usize, j: usize) -> T {
+        self.w
+            .get(i)
+            .and_then(|r| r.get(j))
+            .copied()
+            .unwrap_or_else(T::zero)
+    }
+}
+
+/// Column-major unit upper triangular `U` (entries above the diagonal) turned in place
+/// into its rows, row-major: row `i` at `i N`, `1` on the diagonal, zeros before it: the
+/// rows of `W = Φ U` where Φ is the identity.
+#[inline(always)]
+fn rows_of_u<T: Real, const N: usize>(u: &mut [T]) {
+    for i in 0..N {
+        for k in i..N {
+            let lower = u.get(k * N + i).copied().unwrap_or_else(T::zero);
+            if let Some(e) = u.get_mut(i * N + k) {
+                *e = if k == i { T::one() } else { lower };
+            }
+            if k != i {
+                if let Some(e) = u.get_mut(k * N + i) {
+                    *e = T::zero();
+                }
+            }
         }
-        j += 1;
+    }
+}
+
+/// The modified weighted Gram-Schmidt orthogonalization (Thornton) of
+/// `W = [W_1 | W_Q]` with weights `diag(D, D_Q)`: the rows of `W_1` in `u` (row-major,
+/// row `i` zero before column `lo[i]`), `D` in `d`, `W_Q` in `q`. The rows from the last
+/// up, each earlier row made `Dw`-orthogonal to it, give `U` and `D` with
+/// `U D Uᵀ = W Dw Wᵀ`: once row `j` is used its place in `u` takes column `j` of `U`, so
+/// `u` ends column-major like the filter's `U`. Each `D_j` below `floor` is raised to
+/// it; returns how many were.
+///
+/// States from `t0` on are *static*: their rows of W are U's (Φ the identity there) and
+/// take no noise. Their pivots then leave D and their rows as they are, and take each
+/// earlier row's entry in their column as is (the row of U after the orthogonalization
+/// against them is the unit row, so `a_ij = w_ij`): those columns of `U` are W's,
+/// moved into place, with no arithmetic (the 33-state layout's calibration constants).
+fn orthogonalize<T: Real, const N: usize>(
+    u: &mut [T],
+    lo: &mut [u8; N],
+    q: &mut NoisePart<T, N>,
+    d: &mut [T],
+    floor: T,
+    t0: usize,
+) -> u32 {
+    let mut dw = [T::zero(); N];
+    dw.copy_from_slice(d.get(..N).unwrap_or(&[]));
+    let mut clamped = 0;
+    let nq = q.n;
+    let t0 = t0.min(N);
+    for j in (t0..N).rev() {
+        let mut col = [T::zero(); N];
+        for (i, c) in col.iter_mut().enumerate().take(j) {
+            *c = u.get(i * N + j).copied().unwrap_or_else(T::zero);
+        }
+        if let (Some(dst), Some(src)) = (u.get_mut(j * N..j * N + j), col.get(..j)) {
+            dst.copy_from_slice(src);
+        }
+    }
+    for j in (0..t0).rev() {
+        let l = lo.get(j).map_or(N, |&v| usize::from(v));
+        let fq = q.first.get(j).map_or(nq, |&v| usize::from(v));
+        let (top, rest) = u.split_at_mut((j * N).min(u.len()));
+        let (qtop, qrest) = q.w.split_at_mut(j);
+        let (wj, qj) = (
+            rest.get(l..t0).unwrap_or(&[]),
+            qrest.first().and_then(|r| r.get(fq..nq)).unwrap_or(&[]),
+        );
+        // c = Dw w_j over the row's non-zeros.
+        let mut cu = [T::zero(); N];
+        let mut cq = [T::zero(); N];
+        for ((c, &w), &dd) in cu.iter_mut().zip(wj.iter()).zip(dw.get(l..).unwrap_or(&[])) {
+            *c = dd * w;
+        }
+        for ((c, &w), &dd) in cq.iter_mut().zip(qj).zip(q.dq.get(fq..).unwrap_or(&[])) {
+            *c = dd * w;
+        }
+        let dj = dot(wj, &cu) + dot(qj, &cq);
+        let mut col = [T::zero(); N];
+        if dj > T::zero() {
+            let inv = T::one() / dj;
+            let rows = top.chunks_exact_mut(N).zip(qtop.iter_mut());
+            for (((wi, qi), lo_i), uij) in rows.zip(lo.iter_mut()).zip(col.iter_mut()) {
+                let (wi, qi) = (
+                    wi.get_mut(l..t0).unwrap_or(&mut []),
+                    qi.get_mut(fq..nq).unwrap_or(&mut []),
+                );
+                let a = (dot(wi, &cu) + dot(qi, &cq)) * inv;
+                *uij = a;
+                if a != T::zero() {
+                    axpy(wi, -a, wj);
+                    axpy(qi, -a, qj);
+                    *lo_i = (*lo_i).min(l as u8);
+                }
+            }
+        }
+        // Row j is used: its place takes column j of U.
+        if let (Some(dst), Some(src)) = (rest.get_mut(..j), col.get(..j)) {
+            dst.copy_from_slice(src);
+        }
+        if let Some(e) = d.get_mut(j) {
+            *e = if dj < floor {
+                clamped += 1;
+                floor
+            } else {
+                dj
+            };
+        }
     }
     clamped
 }
 
 impl<T: Real, const N: usize> Kalman<T, N> {
-    /// Creates the filter from the initial covariance `p0` (physical units, symmetric); the
-    /// state scales are the square roots of its diagonal (a zero diagonal gets scale 1).
-    /// `variance_floor` is the smallest allowed *scaled* variance, e.g. 1e-10.
+    /// Creates the filter from the initial covariance `p0` (physical units, symmetric
+    /// positive definite); the state scales are the square roots of its diagonal (a zero
+    /// diagonal gets scale 1). `variance_floor` is the smallest allowed *scaled*
+    /// conditional variance `D_j`, e.g. 1e-10.
     pub fn new(p0: &SMatrix<T, N, N>, variance_floor: T) -> Self {
         let mut k = Self::unstarted(variance_floor);
         k.restart(variance_floor, |p| p.copy_from(p0));
@@ -445,7 +550,8 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     pub fn unstarted(variance_floor: T) -> Self {
         Self {
             xs: SVector::zeros(),
-            ps: SMatrix::zeros(),
+            u: SMatrix::zeros(),
+            d: SVector::zeros(),
             scale: SVector::repeat(T::one()),
             inv_scale: SVector::repeat(T::one()),
             floor: variance_floor,
@@ -453,34 +559,103 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         }
     }
 
-    /// Starts the filter again in place, as [`Kalman::new`] would build it from the initial
-    /// covariance that `fill_p0` writes (physical units, symmetric) into the matrix it is
-    /// given, which is this filter's own storage: no `N × N` temporary (the board
-    /// reconfigures its engine this way). The health counters are kept.
+    /// Starts the filter again in place from the initial covariance that `fill_p0` writes
+    /// (physical units, symmetric, positive definite in `T`) into the matrix it is given,
+    /// which is this filter's own storage (no `N × N` temporary), factored there. The
+    /// health counters are kept. A covariance whose correlations `T` cannot carry is not
+    /// positive definite once rounded: give its factors ([`Kalman::restart_factored`]).
     pub fn restart(&mut self, variance_floor: T, fill_p0: impl FnOnce(&mut SMatrix<T, N, N>)) {
-        fill_p0(&mut self.ps);
-        for (i, (s, inv)) in self
-            .scale
-            .iter_mut()
-            .zip(self.inv_scale.iter_mut())
-            .enumerate()
-        {
-            let d = mat::get(&self.ps, i, i);
-            *s = if d > T::zero() && d.is_finite() {
-                d.sqrt_fast()
-            } else {
-                T::one()
-            };
-            *inv = T::one() / *s;
-        }
+        fill_p0(&mut self.u);
+        self.set_scales(|u, _, i| mat::get(u, i, i));
+        let (sc, u) = (self.scale, &mut self.u);
         for j in 0..N {
-            for i in 0..N {
-                let v = mat::get(&self.ps, i, j) / (vget(&self.scale, i) * vget(&self.scale, j));
-                mat::set(&mut self.ps, i, j, v);
+            for i in 0..=j {
+                let v = mat::get(u, i, j) / (vget(&sc, i) * vget(&sc, j));
+                mat::set(u, i, j, v);
+            }
+        }
+        // U D Uᵀ of the upper triangle, in place: column j from the last, its pivot the
+        // variance given the later states, the earlier block reduced by it.
+        for j in (0..N).rev() {
+            let dj = mat::get(&self.u, j, j);
+            let pos = dj > T::zero();
+            for i in 0..j {
+                let pij = mat::get(&self.u, i, j);
+                if pos {
+                    for k in 0..=i {
+                        let pkj = mat::get(&self.u, k, j);
+                        let v = mat::get(&self.u, k, i) - pkj * pij / dj;
+                        mat::set(&mut self.u, k, i, v);
+                    }
+                }
+            }
+            for i in 0..j {
+                let v = if pos {
+                    mat::get(&self.u, i, j) / dj
+                } else {
+                    T::zero()
+                };
+                mat::set(&mut self.u, i, j, v);
+            }
+            if let Some(e) = self.d.get_mut(j) {
+                *e = dj.max(T::zero());
             }
         }
         self.xs.fill(T::zero());
         self.floor = variance_floor;
+    }
+
+    /// Starts the filter again in place from the initial covariance's factors, which
+    /// `fill` writes (physical units) into this filter's own storage: `U` (unit upper
+    /// triangular: only its entries above the diagonal are read) and `D` (not negative), so
+    /// that `P₀ = U D Uᵀ`. Nothing of `P₀` is formed: its small conditional variances
+    /// (ψ given the misalignment and the flexure, the master's attitude noise) stay exact.
+    pub fn restart_factored(
+        &mut self,
+        variance_floor: T,
+        fill: impl FnOnce(&mut SMatrix<T, N, N>, &mut SVector<T, N>),
+    ) {
+        self.u.fill(T::zero());
+        self.d.fill(T::zero());
+        fill(&mut self.u, &mut self.d);
+        self.set_scales(|u, d, i| {
+            let mut v = vget(d, i);
+            for k in i + 1..N {
+                let uik = mat::get(u, i, k);
+                v += uik * uik * vget(d, k);
+            }
+            v
+        });
+        let (sc, inv) = (self.scale, self.inv_scale);
+        for j in 0..N {
+            let sj = vget(&sc, j);
+            if let Some(e) = self.d.get_mut(j) {
+                *e = (*e * vget(&inv, j) * vget(&inv, j)).max(T::zero());
+            }
+            for i in 0..j {
+                let v = mat::get(&self.u, i, j) * sj * vget(&inv, i);
+                mat::set(&mut self.u, i, j, v);
+            }
+        }
+        self.xs.fill(T::zero());
+        self.floor = variance_floor;
+    }
+
+    /// The scales `s_i = √P_ii` (1 where that is zero or not finite) and their reciprocals,
+    /// `var(u, d, i)` giving `P_ii` from the storage as filled.
+    fn set_scales(&mut self, var: impl Fn(&SMatrix<T, N, N>, &SVector<T, N>, usize) -> T) {
+        for i in 0..N {
+            let v = var(&self.u, &self.d, i);
+            let s = if v > T::zero() && v.is_finite() {
+                v.sqrt_fast()
+            } else {
+                T::one()
+            };
+            if let (Some(e), Some(f)) = (self.scale.get_mut(i), self.inv_scale.get_mut(i)) {
+                *e = s;
+                *f = T::one() / s;
+            }
+        }
     }
 
     /// State estimate in physical units.
@@ -488,19 +663,33 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         self.xs.component_mul(&self.scale)
     }
 
+    /// Scaled covariance element `P_s(i, j) = Σ_{k ≥ max(i, j)} U(i, k) D_k U(j, k)` (O(N)).
+    fn scaled(&self, i: usize, j: usize) -> T {
+        let (a, b) = (i.min(j), i.max(j));
+        let (u, d) = (self.u.as_slice(), self.d.as_slice());
+        let ue = |r: usize, c: usize| {
+            if r == c {
+                T::one()
+            } else {
+                u.get(c * N + r).copied().unwrap_or_else(T::zero)
+            }
+        };
+        let mut acc = T::zero();
+        for (k, &dk) in d.iter().enumerate().skip(b) {
+            acc += ue(a, k) * ue(b, k) * dk;
+        }
+        acc
+    }
+
     /// Covariance element (physical units).
     pub fn cov(&self, i: usize, j: usize) -> T {
-        match (
-            self.ps.as_slice().get(upper::<N>(i, j)),
-            self.scale.get(i),
-            self.scale.get(j),
-        ) {
-            (Some(p), Some(si), Some(sj)) => *p * *si * *sj,
+        match (self.scale.get(i), self.scale.get(j)) {
+            (Some(si), Some(sj)) => self.scaled(i, j) * *si * *sj,
             _ => T::zero(),
         }
     }
 
-    /// Covariance in physical units (for reports and tests; O(N²)).
+    /// Covariance in physical units (for reports and tests; O(N³)).
     pub fn covariance(&self) -> SMatrix<T, N, N> {
         SMatrix::from_fn(|i, j| self.cov(i, j))
     }
@@ -510,11 +699,25 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         self.cov(i, i).max(T::zero()).sqrt_fast()
     }
 
-    /// Scaled covariance (dimensionless; what the numerics act on), both triangles filled
-    /// from the stored one (O(N²), for checks and reports).
+    /// Scaled covariance (dimensionless; what the numerics act on), formed from the
+    /// factors (O(N³), for checks and reports).
     pub fn scaled_covariance(&self) -> SMatrix<T, N, N> {
-        let ps = self.ps.as_slice();
-        SMatrix::from_fn(|i, j| ps.get(upper::<N>(i, j)).copied().unwrap_or_else(T::zero))
+        SMatrix::from_fn(|i, j| self.scaled(i, j))
+    }
+
+    /// Scaled variance `P_s(i, i)` (O(N)).
+    pub fn scaled_variance(&self, i: usize) -> T {
+        self.scaled(i, i)
+    }
+
+    /// The smallest conditional variance `D_j` (scaled): the covariance is positive
+    /// definite exactly when it is positive.
+    pub fn min_conditional_variance(&self) -> T {
+        self.d
+            .iter()
+            .copied()
+            .reduce(T::min)
+            .unwrap_or_else(T::zero)
     }
 
     /// Sets the states listed in `indices` to zero after their estimate has been fed
@@ -530,62 +733,145 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// Freezes the states in `indices` at their current estimate: their rows and
     /// columns of the covariance are zeroed and their variances set to the floor, so
     /// later updates leave them (practically) unchanged. Used to estimate on one part of
-    /// a recording and predict the innovations of the rest.
+    /// a recording and predict the innovations of the rest. (A time update with Φ zero on
+    /// those rows and Q the floor there, the estimate kept.)
     pub fn freeze(&mut self, indices: core::ops::Range<usize>) {
-        for i in indices {
-            for j in 0..N {
-                mat::set(&mut self.ps, i, j, T::zero());
-                mat::set(&mut self.ps, j, i, T::zero());
+        let floor = self.floor;
+        let mut q = NoisePart::<T, N>::new(|w| {
+            for i in indices.clone() {
+                if let Some(e) = w.get_mut(i).and_then(|r| r.get_mut(i)) {
+                    *e = floor;
+                }
             }
-            mat::set(&mut self.ps, i, i, self.floor);
+        });
+        let u = self.u.as_mut_slice();
+        rows_of_u::<T, N>(u);
+        let mut lo: [u8; N] = core::array::from_fn(|i| i as u8);
+        for i in indices {
+            if let (Some(row), Some(l)) = (u.get_mut(i * N..(i + 1) * N), lo.get_mut(i)) {
+                row.fill(T::zero());
+                *l = N as u8;
+            }
         }
+        orthogonalize(u, &mut lo, &mut q, self.d.as_mut_slice(), floor, N);
     }
 
-    /// Scales state `i` by `d`: `x_i ← d x_i`, row and column `i` of P by `d` (`P_ii` by
-    /// `d²`). The transition of a state that decays on its own (a first-order Gauss-Markov
-    /// state, `d = e^{−t/τ}`) and that no other row of Φ reads: then
-    /// `Φ = Φ_rest · D` with `D` this scaling, and applying it before [`Self::predict`]
-    /// with `Φ_rest` is the full time update, at O(N) instead of a row of Φ.
+    /// Scales state `i` by `d > 0`: `x_i ← d x_i`, row and column `i` of P by `d` (`P_ii`
+    /// by `d²`): `D_i` by `d²`, row `i` of U by `d` and its column by `1 / d`. The
+    /// transition of a state that decays on its own (a first-order Gauss-Markov state,
+    /// `d = e^{−t/τ}`) and that no other row of Φ reads: then `Φ = Φ_rest · D` with `D`
+    /// this scaling, and applying it before [`Self::predict`] with `Φ_rest` is the full
+    /// time update, at O(N) instead of a row of Φ. A `d` whose reciprocal is not finite
+    /// is refused (counted as non-finite).
     pub fn decay(&mut self, i: usize, d: T) {
-        if i >= N {
+        let inv = T::one() / d;
+        if i >= N || !(d > T::zero() && inv.is_finite()) {
+            self.health.non_finite += 1;
             return;
         }
         if let Some(x) = self.xs.get_mut(i) {
             *x *= d;
         }
-        let ps = self.ps.as_mut_slice();
+        if let Some(e) = self.d.get_mut(i) {
+            *e *= d * d;
+        }
         for j in 0..N {
-            if let Some(e) = ps.get_mut(upper::<N>(i, j)) {
-                *e *= if j == i { d * d } else { d };
+            let f = if j > i { d } else { inv };
+            if j != i {
+                let (r, c) = (i.min(j), i.max(j));
+                let v = mat::get(&self.u, r, c) * f;
+                mat::set(&mut self.u, r, c, v);
             }
         }
     }
 
-    /// Time update `x ← Φ x`, `P ← Φ P Φᵀ + Q` (physical-unit Φ and Q). Only the rows and
-    /// columns of Φ's non-identity rows change (with `A` those rows: `P_as ← Φ_a P` on the
-    /// other columns, `P_aa ← (Φ_a P) Φ_aᵀ`), each product over the rows' non-zero columns;
-    /// the rest of P only takes its diagonal Q. A step with a non-finite result is refused.
+    /// Time update `x ← Φ x`, `P ← Φ P Φᵀ + Q` (physical-unit Φ and Q), in the factors:
+    /// `W = [Φ U | U_Q]` with the weights `diag(D, D_Q)` orthogonalized row by row
+    /// (Thornton's modified weighted Gram-Schmidt) gives the new `U` and `D`. Φ U is
+    /// formed only on Φ's non-identity rows (each over its non-zero columns), and each
+    /// row of W is zero before its first column, which the orthogonalization skips. A
+    /// step with a non-finite input is refused.
     pub fn predict<const R: usize, const P: usize>(
         &mut self,
         phi: &Transition<T, N, R>,
         q: &Noise<T, N, P>,
     ) {
+        let inv = self.inv_scale.as_slice();
+        let at = |v: &[T], i: usize| v.get(i).copied().unwrap_or_else(T::zero);
+        let qs = |i: usize, j: usize, v: T| v * at(inv, i) * at(inv, j);
+        let (q_diag, q_pairs) = (&q.diag, &q.pairs);
+        let mut check = T::zero();
+        for (i, &qd) in q_diag.iter().enumerate() {
+            check += qs(i, i, qd);
+        }
+        for &(i, j, v) in q_pairs.iter() {
+            check += qs(i, j, v);
+        }
+        if !check.is_finite() {
+            self.health.non_finite += 1;
+            return;
+        }
+        let Some(mut lo) = self.phi_u_rows(phi) else {
+            self.health.non_finite += 1;
+            return;
+        };
+        // Q_s = S⁻¹ Q S⁻¹ on the upper triangle, factored.
+        let inv = self.inv_scale.as_slice();
+        let qs = |i: usize, j: usize, v: T| v * at(inv, i) * at(inv, j);
+        let mut q = NoisePart::<T, N>::new(|w| {
+            for (i, (row, &qd)) in w.iter_mut().zip(q_diag.iter()).enumerate() {
+                if let Some(e) = row.get_mut(i) {
+                    *e = qs(i, i, qd);
+                }
+            }
+            for &(i, j, v) in q_pairs.iter() {
+                if let Some(e) = w.get_mut(i.min(j)).and_then(|row| row.get_mut(i.max(j))) {
+                    *e += qs(i, j, v);
+                }
+            }
+        });
+        // The static states at the end (see [`orthogonalize`]).
+        let mut t0 = N;
+        while let Some(j) = t0.checked_sub(1) {
+            let noisy = q_diag.get(j).is_some_and(|&v| v != T::zero())
+                || q_pairs
+                    .iter()
+                    .any(|&(a, b, v)| (a == j || b == j) && v != T::zero());
+            if noisy || phi.index.contains(&j) {
+                break;
+            }
+            t0 = j;
+        }
+        self.health.variance_clamped += orthogonalize(
+            self.u.as_mut_slice(),
+            &mut lo,
+            &mut q,
+            self.d.as_mut_slice(),
+            self.floor,
+            t0,
+        );
+    }
+
+    /// The time update's `x ← Φ x` and the first part of its Gram-Schmidt matrix,
+    /// `W_1 = Φ_s U` (Φ_s(i, k) = Φ(i, k) s_k / s_i), written in U's place, row-major
+    /// (see [`orthogonalize`]); returns where each row's non-zeros start. The rows of Φ
+    /// that are not the identity's, over their non-zero columns, are formed first from
+    /// U's rows (column-major: one element per column). `None` (nothing changed) if one of them
+    /// or `Φ x` is not finite.
+    #[inline(always)]
+    fn phi_u_rows<const R: usize>(&mut self, phi: &Transition<T, N, R>) -> Option<[u8; N]> {
         let (sc, inv) = (self.scale.as_slice(), self.inv_scale.as_slice());
         let at = |v: &[T], i: usize| v.get(i).copied().unwrap_or_else(T::zero);
-        let mut active = [false; N];
-        for &i in phi.index.iter() {
-            if let Some(a) = active.get_mut(i) {
-                *a = true;
-            }
-        }
-        // Scaled rows Φ_s(i, k) = Φ(i, k) s_k / s_i, compact over the non-zero columns.
-        let mut fs = [[T::zero(); N]; R];
-        // B = Φ_s,a P_s (the active rows of Φ P), and Φ_s,a x_s.
-        let mut b = [[T::zero(); N]; R];
+        let mut active = [[T::zero(); N]; R];
+        let mut active_lo = [N as u8; R];
         let mut x_new = [T::zero(); R];
-        let ps = self.ps.as_slice();
         let mut check = T::zero();
-        for (r, (frow, xn)) in fs.iter_mut().zip(x_new.iter_mut()).enumerate() {
+        let u = self.u.as_slice();
+        let rows = active
+            .iter_mut()
+            .zip(active_lo.iter_mut())
+            .zip(x_new.iter_mut());
+        for (r, ((row, lo), xn)) in rows.enumerate() {
             let (Some(&i), Some(vals), Some(cols), Some(&n)) = (
                 phi.index.get(r),
                 phi.values.get(r),
@@ -594,203 +880,64 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             ) else {
                 continue;
             };
+            let cols = cols.get(..n).unwrap_or(&[]);
+            *lo = cols.first().copied().unwrap_or(N as u8);
             let inv_i = at(inv, i);
-            for (&k, f) in cols.get(..n).unwrap_or(&[]).iter().zip(frow.iter_mut()) {
+            for &k in cols {
                 let k = usize::from(k);
-                *f = at(vals, k) * at(sc, k) * inv_i;
-                *xn += *f * at(self.xs.as_slice(), k);
+                let f = at(vals, k) * at(sc, k) * inv_i;
+                *xn += f * at(self.xs.as_slice(), k);
+                add_urow::<T, N>(row.get_mut(k..).unwrap_or(&mut []), f, u, k);
             }
-        }
-        // B row by row, over each row's columns ascending; six rows with the same columns
-        // (δv and ψ's) in one pass over each row of P, which reads it once for all six.
-        let cols_of = |r: usize| {
-            let n = phi.count.get(r).copied().unwrap_or(0);
-            phi.cols.get(r).and_then(|c| c.get(..n)).unwrap_or(&[])
-        };
-        let mut r = 0;
-        while r < R {
-            let cols = cols_of(r);
-            let six = (r + 1..r + GROUP).all(|q| q < R && cols_of(q) == cols);
-            let group = b
-                .get_mut(r..r + GROUP)
-                .and_then(|g| <&mut [[T; N]; GROUP]>::try_from(g).ok());
-            match (six, group) {
-                (true, Some(rows)) => {
-                    for (c, &k) in cols.iter().enumerate() {
-                        let f: [T; GROUP] = core::array::from_fn(|d| {
-                            fs.get(r + d)
-                                .and_then(|row| row.get(c))
-                                .copied()
-                                .unwrap_or_else(T::zero)
-                        });
-                        add_row_group(rows, &f, ps, usize::from(k));
-                    }
-                    r += GROUP;
-                }
-                _ => {
-                    if let (Some(brow), Some(frow)) = (b.get_mut(r), fs.get(r)) {
-                        for (&k, &f) in cols.iter().zip(frow.iter()) {
-                            add_row(brow, f, ps, usize::from(k));
-                        }
-                    }
-                    r += 1;
-                }
-            }
-        }
-        for (brow, &xn) in b.iter().zip(x_new.iter()) {
-            check += xn;
-            check = sum_into(check, brow);
-        }
-        // P_aa = B Φ_s,aᵀ on the upper triangle (pairs r ≤ q), with Q_s added.
-        let mut paa = [[T::zero(); R]; R];
-        for (qq, (frow, (cols, &n))) in fs
-            .iter()
-            .zip(phi.cols.iter().zip(phi.count.iter()))
-            .enumerate()
-        {
-            for (r, brow) in b.iter().enumerate().take(qq + 1) {
-                let mut acc = T::zero();
-                for (&k, &f) in cols.get(..n).unwrap_or(&[]).iter().zip(frow.iter()) {
-                    acc += at(brow, usize::from(k)) * f;
-                }
-                if let Some(e) = paa.get_mut(r).and_then(|row| row.get_mut(qq)) {
-                    *e = acc;
-                }
-            }
-        }
-        let pos = |i: usize| phi.index.iter().position(|&k| k == i);
-        let qs = |i: usize, j: usize, v: T| v * at(inv, i) * at(inv, j);
-        let mut diag_static = [T::zero(); N];
-        for (i, ((d, &qd), &a)) in diag_static
-            .iter_mut()
-            .zip(q.diag.iter())
-            .zip(active.iter())
-            .enumerate()
-        {
-            let v = if qd != T::zero() {
-                qs(i, i, qd)
-            } else {
-                T::zero()
-            };
-            if a {
-                if let Some(e) = pos(i).and_then(|r| paa.get_mut(r).and_then(|row| row.get_mut(r)))
-                {
-                    *e += v;
-                }
-            } else {
-                *d = at(ps, i * N + i) + v;
-                check += *d;
-            }
-        }
-        let mut pairs_static = [(0usize, T::zero()); P];
-        for (&(i, j, v), slot) in q.pairs.iter().zip(pairs_static.iter_mut()) {
-            let v = qs(i, j, v);
-            match (pos(i), pos(j)) {
-                (Some(r), Some(c)) => {
-                    let (r, c) = (r.min(c), r.max(c));
-                    if let Some(e) = paa.get_mut(r).and_then(|row| row.get_mut(c)) {
-                        *e += v;
-                    }
-                }
-                // One active: the new value is that row's, in `b`.
-                (Some(r), None) | (None, Some(r)) => {
-                    let other = if pos(i).is_some() { j } else { i };
-                    if let Some(e) = b.get_mut(r).and_then(|row| row.get_mut(other)) {
-                        *e += v;
-                        check += v;
-                    }
-                }
-                (None, None) => {
-                    let k = upper::<N>(i, j);
-                    *slot = (k, at(ps, k) + v);
-                    check += slot.1;
-                }
-            }
-        }
-        for (r, row) in paa.iter().enumerate() {
-            for &v in row.iter().skip(r) {
-                check += v;
-            }
+            check += *xn;
+            check = sum_into(check, row);
         }
         if !check.is_finite() {
-            self.health.non_finite += 1;
-            return;
+            return None;
         }
-        // Write back: the active rows whole from B (their static columns are final), then
-        // the active block from P_aa over B's values there, then the rest's Q.
-        let ps = self.ps.as_mut_slice();
-        for (brow, (&xn, &i)) in b.iter().zip(x_new.iter().zip(phi.index.iter())) {
+        for (&xn, &i) in x_new.iter().zip(phi.index.iter()) {
             if let Some(x) = self.xs.get_mut(i) {
                 *x = xn;
             }
-            // Row i of P: columns j < i are the top of stored column i (contiguous), j ≥ i
-            // row i of the stored triangle (one element per column).
-            let (left, right) = brow.split_at(i.min(N));
-            if let Some(dst) = ps.get_mut(i * N..i * N + left.len()) {
-                dst.copy_from_slice(left);
-            }
-            store_strided::<T, N>(ps.get_mut(i * N + i..).unwrap_or(&mut []), right);
         }
-        for (r, (row, &i)) in paa.iter().zip(phi.index.iter()).enumerate() {
-            for (&v, &j) in row.iter().zip(phi.index.iter()).skip(r) {
-                if let Some(e) = ps.get_mut(upper::<N>(i, j)) {
-                    *e = v;
-                }
+        let u = self.u.as_mut_slice();
+        rows_of_u::<T, N>(u);
+        let mut lo: [u8; N] = core::array::from_fn(|i| i as u8);
+        for ((row, &l), &i) in active.iter().zip(active_lo.iter()).zip(phi.index.iter()) {
+            if let (Some(dst), Some(e)) = (u.get_mut(i * N..(i + 1) * N), lo.get_mut(i)) {
+                dst.copy_from_slice(row);
+                *e = l;
             }
         }
-        for (i, (&d, &a)) in diag_static.iter().zip(active.iter()).enumerate() {
-            if !a {
-                if let Some(e) = ps.get_mut(i * N + i) {
-                    *e = d;
-                }
-            }
-        }
-        for (k, v) in pairs_static {
-            if v != T::zero() {
-                if let Some(e) = ps.get_mut(k) {
-                    *e = v;
-                }
-            }
-        }
-        self.clamp_variances();
+        Some(lo)
     }
 
     /// Sequential scalar update with measurement row `h` (physical units), measurement
-    /// `z`, noise variance `r`, and gate `gate` in standard deviations. Works over the
-    /// non-zero entries of `h` (a matching row has at most a dozen) and the stored triangle.
+    /// `z`, noise variance `r`, and gate `gate` in standard deviations, in the factors
+    /// (Bierman): `f = Uᵀ h` over h's non-zeros, `g = D f`, the innovation variance
+    /// `r + Σ f_j g_j` (a sum of terms that are not negative: no cancellation, where
+    /// `h P hᵀ` of a precise measurement cancels to below `f32`'s resolution), then U and
+    /// D column by column. Each conditional variance below the floor is raised to it.
     pub fn update_scalar(&mut self, h: &SVector<T, N>, z: T, r: T, gate: T) -> ScalarUpdate<T> {
-        // h's non-zeros (scaled h_j = h_j s_j), their columns listed (a byte each).
         let (hs, sc) = (h.as_slice(), self.scale.as_slice());
-        let mut nz = [0u8; N];
-        let mut n_nz = 0;
-        for (j, (&hj, &sj)) in hs.iter().zip(sc.iter()).enumerate() {
-            if hj * sj != T::zero() {
-                if let Some(c) = nz.get_mut(n_nz) {
-                    *c = j as u8;
+        let mut f = [T::zero(); N];
+        let mut hx = T::zero();
+        {
+            let (u, xs) = (self.u.as_slice(), self.xs.as_slice());
+            for (i, ((&hi, &si), &xi)) in hs.iter().zip(sc).zip(xs).enumerate() {
+                let v = hi * si;
+                if v != T::zero() {
+                    hx += v * xi;
+                    add_urow::<T, N>(f.get_mut(i..).unwrap_or(&mut []), v, u, i);
                 }
-                n_nz += 1;
             }
         }
-        let nz = nz.get(..n_nz).unwrap_or(&[]);
-        let scaled_h = |j: usize| {
-            hs.get(j).copied().unwrap_or_else(T::zero) * sc.get(j).copied().unwrap_or_else(T::zero)
-        };
-        // P h: row j of P times the scaled h_j, summed over the non-zeros (P symmetric).
-        let mut ph = [T::zero(); N];
-        let ps = self.ps.as_slice();
-        for &j in nz {
-            let j = usize::from(j);
-            add_row(&mut ph, scaled_h(j), ps, j);
+        let mut g = [T::zero(); N];
+        let mut s = r;
+        for ((gj, &fj), &dj) in g.iter_mut().zip(f.iter()).zip(self.d.iter()) {
+            *gj = dj * fj;
+            s += fj * *gj;
         }
-        let (mut hph, mut hx) = (T::zero(), T::zero());
-        for &j in nz {
-            let j = usize::from(j);
-            let at = |v: &[T]| v.get(j).copied().unwrap_or_else(T::zero);
-            let v = scaled_h(j);
-            hph += v * at(&ph);
-            hx += v * at(self.xs.as_slice());
-        }
-        let s = hph + r;
         let innovation = z - hx;
         let refused = ScalarUpdate {
             innovation,
@@ -818,12 +965,39 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             };
         }
         self.health.gated_streak = 0;
-        // K = P h / s.
-        let inv_s = T::one() / s;
-        let mut k = [T::zero(); N];
-        gain_step(&mut k, self.xs.as_mut_slice(), &ph, inv_s, innovation);
-        // P ← P − K (P h)ᵀ on the upper triangle, the diagonal clamped to the floor.
-        let clamped = rank_one_downdate::<T, N>(self.ps.as_mut_slice(), &ph, &k, self.floor);
+        // Bierman: α from r up, column j of U and D_j from the old ones; b ends as P h.
+        let mut b = [T::zero(); N];
+        let mut alpha = r;
+        let mut clamped = 0;
+        let floor = self.floor;
+        let cols = self.u.as_mut_slice().chunks_exact_mut(N);
+        let steps = cols.zip(self.d.iter_mut()).zip(f.iter().zip(g.iter()));
+        for (j, ((col, dj), (&fj, &gj))) in steps.enumerate() {
+            if fj == T::zero() {
+                continue; // the step is the identity (g_j = 0, λ = 0)
+            }
+            let prev = alpha;
+            alpha += fj * gj;
+            if alpha > T::zero() {
+                *dj *= prev / alpha;
+            }
+            let lambda = if prev > T::zero() {
+                -fj / prev
+            } else {
+                T::zero()
+            };
+            let (above, from_j) = b.split_at_mut(j.min(N));
+            bierman_column(col.get_mut(..j).unwrap_or(&mut []), above, lambda, gj);
+            if let Some(bj) = from_j.first_mut() {
+                *bj = gj;
+            }
+            if *dj < floor {
+                *dj = floor;
+                clamped += 1;
+            }
+        }
+        // K = P h / s, x ← x + K ν.
+        axpy(self.xs.as_mut_slice(), innovation / s, &b);
         self.health.variance_clamped += clamped;
         self.health.updates += 1;
         ScalarUpdate {
@@ -831,18 +1005,6 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             variance: s,
             test_ratio,
             accepted: true,
-        }
-    }
-
-    fn clamp_variances(&mut self) {
-        let ps = self.ps.as_mut_slice();
-        for i in 0..N {
-            if let Some(d) = ps.get_mut(i * N + i) {
-                if *d < self.floor {
-                    *d = self.floor;
-                    self.health.variance_clamped += 1;
-                }
-            }
         }
     }
 }
@@ -1049,5 +1211,73 @@ mod tests {
         assert!((kf.covariance() - p1).norm() < 1e-12 * p1.norm());
         let ps = kf.scaled_covariance();
         assert_eq!(ps, ps.transpose());
+    }
+
+    #[test]
+    fn freeze_zeroes_the_rows_and_columns_and_keeps_the_rest() {
+        let p0 = p0_nine();
+        let mut kf = Kalman::<f64, 9>::new(&p0, 1e-6);
+        kf.update_scalar(
+            &nalgebra::SVector::<f64, 9>::from_column_slice(&[
+                1.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0,
+            ]),
+            1.0,
+            0.5,
+            1e6,
+        );
+        let (x, p) = (kf.state(), kf.scaled_covariance());
+        kf.freeze(2..5);
+        let ps = kf.scaled_covariance();
+        for i in 0..9 {
+            for j in 0..9 {
+                let frozen = (2..5).contains(&i) || (2..5).contains(&j);
+                let want = match (frozen, i == j) {
+                    (true, true) => 1e-6,
+                    (true, false) => 0.0,
+                    (false, _) => p[(i, j)],
+                };
+                assert!(
+                    (ps[(i, j)] - want).abs() < 1e-12,
+                    "({i}, {j}): {}",
+                    ps[(i, j)]
+                );
+            }
+        }
+        assert_eq!(kf.state(), x);
+    }
+
+    #[test]
+    fn predict_with_static_states_at_the_end_equals_dense_propagation() {
+        // States 5–8 are static (identity rows, no noise) and read by the active rows 0
+        // and 2: their columns of U are moved into place, not orthogonalized.
+        let p0 = p0_nine();
+        let mut kf = Kalman::<f64, 9>::new(&p0, 1e-12);
+        kf.update_scalar(
+            &nalgebra::SVector::<f64, 9>::from_column_slice(&[
+                1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.3, 1.0, 0.0,
+            ]),
+            1.0,
+            0.5,
+            1e6,
+        );
+        let (x, p) = (kf.state(), kf.covariance());
+        let mut phi = Transition::<f64, 9, 2>::new([0, 2]);
+        phi.set_row(0, &[1.0, 0.1, 0.0, 0.0, 0.0, 0.2, 0.0, 0.05, 0.0]);
+        phi.set_row(1, &[0.0, 0.2, 0.9, 0.0, 0.0, 0.0, 0.4, 0.0, 0.1]);
+        let q = Noise::<f64, 9, 1> {
+            diag: [0.01, 0.02, 0.03, 0.04, 0.05, 0.0, 0.0, 0.0, 0.0],
+            pairs: [(1, 3, 0.002)],
+        };
+        kf.predict(&phi, &q);
+        let dense = nalgebra::SMatrix::<f64, 9, 9>::from_fn(|i, j| phi.get(i, j));
+        let mut qd =
+            nalgebra::SMatrix::<f64, 9, 9>::from_diagonal(&nalgebra::SVector::from(q.diag));
+        for (i, j, v) in q.pairs {
+            qd[(i, j)] = v;
+            qd[(j, i)] = v;
+        }
+        let (x1, p1) = (dense * x, dense * p * dense.transpose() + qd);
+        assert!((kf.state() - x1).norm() < 1e-12 * x1.norm());
+        assert!((kf.covariance() - p1).norm() < 1e-12 * p1.norm());
     }
 }

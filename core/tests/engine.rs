@@ -298,3 +298,61 @@ proptest! {
         prop_assert!(est.misalignment.iter().all(|v| v.is_finite()));
     }
 }
+
+/// The engine starts its filter from P₀'s factors (`U`, `D`, not a formed P₀, which `f32`
+/// cannot carry with a precise master attitude); they must multiply out to the P₀ of
+/// `docs/error-model.md`: ψ = −J_r(μ̂₀)(δμ + θ₀) plus the master's attitude noise, each flexure
+/// axis at its AR(2) stationary covariance (θ and θ̇ correlated), the rest diagonal.
+/// Formed here densely, in f64, from those definitions.
+#[test]
+fn initial_factor_is_the_formed_covariance() {
+    use flexcal_core::model::{BA, BG, MU, N, PSI, TH, THD, V};
+    let mut cfg = config();
+    cfg.initial_misalignment_rad = Vector3::new(0.01, -0.03, 0.02);
+    cfg.measurement_noise = MeasurementNoise::uniform(0.01, 2e-6, 1e-4);
+    let engine = Engine::<f64>::new(cfg).unwrap();
+    let s = &cfg.initial_sigma;
+    // x = A y: y the independent parts (δv, n, δμ, b_g, b_a, θ, θ̇), ψ = −J (δμ + θ) + n.
+    let mut py = nalgebra::SMatrix::<f64, N, N>::zeros();
+    for (b, sd) in [
+        (V, s.velocity_mps),
+        (PSI, 2e-6),
+        (MU, s.misalignment_rad),
+        (BG, s.gyro_bias_radps),
+        (BA, s.accel_bias_mps2),
+    ] {
+        for k in 0..3 {
+            py[(b + k, b + k)] = sd * sd;
+        }
+    }
+    for (k, axis) in cfg.flexure.axes.iter().enumerate() {
+        let c = axis.stationary_covariance(cfg.flexure.period_s).unwrap();
+        assert!(c[(0, 1)] != 0.0, "θ and θ̇ correlated: the case under test");
+        let (i, j) = (TH + k, THD + k);
+        py[(i, i)] = c[(0, 0)];
+        py[(i, j)] = c[(0, 1)];
+        py[(j, i)] = c[(1, 0)];
+        py[(j, j)] = c[(1, 1)];
+    }
+    let jr = flexcal_core::rotation::right_jacobian(&cfg.initial_misalignment_rad);
+    let mut a = nalgebra::SMatrix::<f64, N, N>::identity();
+    for r in 0..3 {
+        for c in 0..3 {
+            a[(PSI + r, MU + c)] = -jr[(r, c)];
+            a[(PSI + r, TH + c)] = -jr[(r, c)];
+        }
+    }
+    let p0 = a * py * a.transpose();
+    let p = engine.filter().covariance();
+    for i in 0..N {
+        for j in 0..N {
+            let tol = 1e-12 * (p0[(i, i)] * p0[(j, j)]).sqrt();
+            assert!(
+                (p[(i, j)] - p0[(i, j)]).abs() <= tol,
+                "P₀({i}, {j}): {} from the factors, {} formed",
+                p[(i, j)],
+                p0[(i, j)]
+            );
+        }
+    }
+}

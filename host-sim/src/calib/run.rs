@@ -71,10 +71,11 @@ pub const CHANNELS: [&str; 3] = ["velocity", "attitude", "angular_rate"];
 pub struct CovarianceCheck {
     /// How many times the covariance was checked (after every master update).
     pub checks: usize,
-    /// Checks where the Cholesky factorization of the scaled covariance failed.
+    /// Checks where the covariance was not positive definite: a conditional variance of
+    /// its UD factors (`Kalman::min_conditional_variance`) not positive.
     pub not_positive_definite: usize,
     /// Largest |P_ij − P_ji| seen, scaled units: zero by construction since the filter
-    /// stores one triangle (`Kalman`), so it stays at its initial 0.
+    /// keeps the factors (`Kalman`), so it stays at its initial 0.
     pub max_asymmetry: f64,
     /// Smallest diagonal element seen, scaled units.
     pub min_diagonal: f64,
@@ -366,14 +367,18 @@ fn run_generic<T: Real, const S: usize>(
                     flexure: to3(&e.flexure),
                     flexure_sigma: to3(&e.flexure_sigma),
                 });
-                // One copy of the scaled covariance per update, checked in the engine's own
-                // precision (the board's f32 path included): its smallest variance and its
-                // Cholesky factorization. Its asymmetry is zero by construction (the filter
-                // keeps one triangle), so it is not recomputed.
-                let p = engine.filter().scaled_covariance();
+                // The filter keeps the covariance as its UD factors, in the engine's own
+                // precision (the board's f32 path included): it is positive definite exactly
+                // when every conditional variance D_j is positive (and finite). A covariance
+                // formed from them in f32 may not factor where the factors do (that is why
+                // the filter keeps them), so the factors are what is checked.
+                let kf = engine.filter();
+                let d_min = kf.min_conditional_variance().to_f64();
                 cov.checks += 1;
-                cov.min_diagonal = cov.min_diagonal.min(p.diagonal().min().to_f64());
-                if p.cholesky().is_none() {
+                for i in 0..S {
+                    cov.min_diagonal = cov.min_diagonal.min(kf.scaled_variance(i).to_f64());
+                }
+                if d_min.is_nan() || d_min <= 0.0 {
                     cov.not_positive_definite += 1;
                 }
             }
