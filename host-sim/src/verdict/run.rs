@@ -303,10 +303,18 @@ fn sigma_and_prior(cfg: &CalibConfig, res: &CalibResult) -> Vec<Finding> {
         last.misalignment_sigma,
     ];
     let units = [GYRO_BIAS, ACCEL_BIAS, ANGLE];
+    // The misalignment's prior is centred on the mounting the filter started from (the
+    // representation of that rotation nearest the estimate: a half turn has two).
+    let mounting = crate::calib::mounting::nearest_equivalent(
+        cfg.mounting_estimate_rad.unwrap_or([0.0; 3]),
+        last.misalignment,
+    );
+    let centres = [[0.0; 3], [0.0; 3], mounting];
     let mut out = Vec::new();
     for q in 0..3 {
         for a in 0..3 {
             let (x, s, s0) = (values[q][a], sigmas[q][a], prior[q]);
+            let c = centres[q][a];
             let what = format!("{} {}", STATES[q], AXES[a]);
             let u = units[q];
             if observed[q] && s > SIGMA_FALL * s0 {
@@ -327,15 +335,16 @@ fn sigma_and_prior(cfg: &CalibConfig, res: &CalibResult) -> Vec<Finding> {
                     .num("prior_sigma", s0),
                 );
             }
-            if x.abs() > PRIOR_SIGMAS * s0 {
+            if (x - c).abs() > PRIOR_SIGMAS * s0 {
                 out.push(
                     Finding::new(
                         Severity::Warn,
                         "estimate_beyond_prior",
                         format!(
-                            "{what}: estimate {} is {} prior σ from 0 (prior σ {}): the configuration's sensor grade does not fit this sensor",
+                            "{what}: estimate {} is {} prior σ from {} (prior σ {}): the configuration's sensor grade does not fit this sensor",
                             show(x, u),
-                            g3(x.abs() / s0),
+                            g3((x - c).abs() / s0),
+                            if c == 0.0 { "0".to_string() } else { show(c, u) },
                             show(s0, u)
                         ),
                     )
