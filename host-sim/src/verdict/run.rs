@@ -85,6 +85,19 @@ fn messages(scan: &Scan, res: &CalibResult) -> Vec<Finding> {
             .num("after_last_slave_sample", never as f64)
     };
     let mut out = Vec::new();
+    // Said even when nothing was matched: it is then the reason.
+    if c.master_dropped > 0 {
+        let frac = c.master_dropped as f64 / total as f64;
+        out.push(counts(Finding::new(
+            if frac > DROPPED_FAIL { Severity::Fail } else { Severity::Warn },
+            "queue_dropped",
+            format!(
+                "{} master messages ({:.2}%) were dropped by the engine's {PENDING_DEPTH}-message master queue: they arrived faster than the slave's time reached them (a clock offset, or a master ahead of the slave)",
+                c.master_dropped,
+                100.0 * frac
+            ),
+        )));
+    }
     if res.rows.is_empty() || matched == 0 {
         out.push(counts(Finding::new(
             Severity::Fail,
@@ -110,18 +123,6 @@ fn messages(scan: &Scan, res: &CalibResult) -> Vec<Finding> {
                 c.master_stale,
                 c.master_out_of_order,
                 c.master_dropped
-            ),
-        )));
-    }
-    if c.master_dropped > 0 {
-        let frac = c.master_dropped as f64 / total as f64;
-        out.push(counts(Finding::new(
-            if frac > DROPPED_FAIL { Severity::Fail } else { Severity::Warn },
-            "queue_dropped",
-            format!(
-                "{} master messages ({:.2}%) were dropped by the engine's {PENDING_DEPTH}-message master queue: they arrived faster than the slave's time reached them (a clock offset, or a master ahead of the slave)",
-                c.master_dropped,
-                100.0 * frac
             ),
         )));
     }
