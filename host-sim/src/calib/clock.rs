@@ -264,7 +264,7 @@ pub fn clock_offset(
         .sum::<f64>()
         / n)
         .sqrt();
-    if !(rate_rms >= MIN_RATE_RMS_RADPS) {
+    if rate_rms.is_nan() || rate_rms < MIN_RATE_RMS_RADPS {
         return Err(refuse(
             format!(
                 "the platform hardly turned (the master's body rate varies by {:.3} °/s RMS over {} blocks, {:.3} °/s needed): the clocks cannot be compared by rotation",

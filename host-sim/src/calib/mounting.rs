@@ -134,7 +134,7 @@ pub fn coarse_mounting_after_clock(
 /// leaves it longer than π when the mounting is near a half turn.
 pub fn within_half_turn(v: [f64; 3]) -> [f64; 3] {
     let n = Vector3::from(v).norm();
-    if !(n > std::f64::consts::PI) || !n.is_finite() {
+    if !n.is_finite() || n <= std::f64::consts::PI {
         return v;
     }
     let tau = 2.0 * std::f64::consts::PI;
@@ -148,7 +148,7 @@ pub fn within_half_turn(v: [f64; 3]) -> [f64; 3] {
 pub fn nearest_equivalent(v: [f64; 3], to: [f64; 3]) -> [f64; 3] {
     let v = Vector3::from(v);
     let n = v.norm();
-    if !(n > 0.0) || !n.is_finite() {
+    if !n.is_finite() || n <= 0.0 {
         return v.into();
     }
     let tau = 2.0 * std::f64::consts::PI;
