@@ -313,8 +313,20 @@ pub fn calibrate(
             return Err("internal: declared configuration vanished".into());
         };
         let mut cfg = apply_declared(cfg, &origin, model, stream.master.has_rate())?;
-        progress.phase("aligning the clocks");
-        let window = prefilter::read_window(dir, CLOCK_WINDOW_S + CLOCK_SEARCH_S + 1.0)?;
+        // The first seconds of the recording, read once more, unless the configuration
+        // gives the clock offset (then only the recording's rates are read).
+        let window = if cfg.master_clock_offset_s.is_some() {
+            crate::recording::Recording {
+                meta: stream.meta.clone(),
+                imu_t0: stream.slave.t0(),
+                imu: Vec::new(),
+                master: Vec::new(),
+                truth: None,
+            }
+        } else {
+            progress.phase("aligning the clocks");
+            prefilter::read_window(dir, CLOCK_WINDOW_S + CLOCK_SEARCH_S + 1.0)?
+        };
         let pre_filter = pre_filter(&window, &mut cfg, false);
         eprintln!("flexcal: flexure model: configured");
         Prepared {
