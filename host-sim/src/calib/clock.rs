@@ -28,8 +28,9 @@
 //! curvature, `σ_τ² ≈ (1 − ρ²) / (N ρ (−ρ''))` (N blocks; the delay-estimation bound
 //! for white noise on both rates, with `−ρ''/ρ` the rates' mean-square angular
 //! frequency). It is refused — with the reason — when the platform hardly turned, when
-//! the best correlation is too low to trust, or when the best offset is at the edge of
-//! the search.
+//! the best correlation is too low to trust, when it turned about one axis only (the
+//! rotation-free score cannot then tell τ from τ ± half a period), or when the best
+//! offset is at the edge of the search.
 
 use crate::recording::Recording;
 use nalgebra::{Matrix3, Vector3};
@@ -44,6 +45,11 @@ const MIN_BLOCKS: usize = 20;
 pub const MIN_RATE_RMS_RADPS: f64 = 1e-3;
 /// Correlation needed to trust the offset found.
 pub const MIN_CORRELATION: f64 = 0.5;
+/// At the peak, the second singular value of `B` must be at least this fraction of the
+/// first. Below it the platform turned about one axis only, and the score cannot tell
+/// the offset from one half a period away (a half turn about a perpendicular axis maps
+/// `−ω` onto `ω`); a ship's roll, pitch and yaw at their own periods are far above it.
+pub const MIN_SECOND_AXIS: f64 = 1e-2;
 
 /// The clock offset found from the body rates.
 #[derive(Clone, Copy, Debug, serde::Serialize)]
@@ -191,10 +197,21 @@ fn master_blocks(rec: &Recording, from: f64, to: f64) -> (Vec<Block>, f64) {
     (blocks, stride as f64 * dt)
 }
 
+/// The score of one trial offset.
+#[derive(Clone, Copy)]
+struct Score {
+    /// Correlation after the best rotation.
+    r: f64,
+    /// Blocks compared.
+    n: usize,
+    /// Second singular value of `B` over the first.
+    second_axis: f64,
+}
+
 /// The correlation after the best rotation of the master's rates with the slave's
 /// moved by `tau` (see the module doc), and the blocks it used; `None` with fewer than
 /// `MIN_BLOCKS`.
-fn score(blocks: &[Block], slave: &SlaveAngles, tau: f64) -> Option<(f64, usize)> {
+fn score(blocks: &[Block], slave: &SlaveAngles, tau: f64) -> Option<Score> {
     let pairs: Vec<(Vector3<f64>, Vector3<f64>)> = blocks
         .iter()
         .filter_map(|k| {
@@ -225,16 +242,20 @@ fn score(blocks: &[Block], slave: &SlaveAngles, tau: f64) -> Option<(f64, usize)
     sv.sort_by(|x, y| y.total_cmp(x));
     let d = (u.determinant() * v_t.determinant()).signum();
     let r = (sv[0] + sv[1] + d * sv[2]) / (vm * vs).sqrt();
-    r.is_finite().then_some((r, n))
+    r.is_finite().then_some(Score {
+        r,
+        n,
+        second_axis: sv[1] / sv[0],
+    })
 }
 
-/// The best of `taus` by score, with its index; `None` when none scores.
-fn best(scores: &[Option<(f64, usize)>]) -> Option<(usize, f64, usize)> {
+/// The best of `scores` by correlation, with its index; `None` when none scores.
+fn best(scores: &[Option<Score>]) -> Option<(usize, Score)> {
     scores
         .iter()
         .enumerate()
-        .filter_map(|(i, s)| s.map(|(r, n)| (i, r, n)))
-        .max_by(|x, y| x.1.total_cmp(&y.1))
+        .filter_map(|(i, s)| s.map(|s| (i, s)))
+        .max_by(|x, y| x.1.r.total_cmp(&y.1.r))
 }
 
 /// Finds the clock offset within ±`max_offset_s` from the master's messages in
@@ -279,7 +300,13 @@ pub fn clock_offset(
     let lags = (max_offset_s / block_s).round().max(1.0) as i64;
     let coarse: Vec<f64> = (-lags..=lags).map(|l| l as f64 * block_s).collect();
     let coarse_scores: Vec<_> = coarse.iter().map(|&t| score(&blocks, &slave, t)).collect();
-    let Some((ic, rc, _)) = best(&coarse_scores) else {
+    let Some((
+        ic,
+        Score {
+            r: rc, second_axis, ..
+        },
+    )) = best(&coarse_scores)
+    else {
         return Err(refuse(
             format!("no offset within ±{max_offset_s} s leaves {MIN_BLOCKS} blocks inside the slave's samples"),
             None,
@@ -289,6 +316,14 @@ pub fn clock_offset(
         return Err(refuse(
             format!(
                 "the body rates correlate at most {rc:.3} within ±{max_offset_s} s (≥ {MIN_CORRELATION} needed): the clocks were not compared"
+            ),
+            Some(rc),
+        ));
+    }
+    if second_axis.is_nan() || second_axis < MIN_SECOND_AXIS {
+        return Err(refuse(
+            format!(
+                "the platform turned about one axis only (second singular value {second_axis:.1e} of the first, ≥ {MIN_SECOND_AXIS} needed): the offset is ambiguous by half a period"
             ),
             Some(rc),
         ));
@@ -309,13 +344,16 @@ pub fn clock_offset(
         .map(|j| coarse[ic] + j as f64 * step)
         .collect();
     let fine_scores: Vec<_> = fine.iter().map(|&t| score(&blocks, &slave, t)).collect();
-    let Some((i, r0, used)) = best(&fine_scores) else {
+    let Some((i, Score { r: r0, n: used, .. })) = best(&fine_scores) else {
         return Err(refuse("the fine search found no score".into(), Some(rc)));
     };
     // The parabola through the best fine point and its neighbours.
-    let neighbour = |k: Option<usize>| k.and_then(|k| fine_scores.get(k).copied().flatten());
+    let neighbour = |k: Option<usize>| {
+        k.and_then(|k| fine_scores.get(k).copied().flatten())
+            .map(|s| s.r)
+    };
     let (offset, curvature) = match (neighbour(i.checked_sub(1)), neighbour(Some(i + 1))) {
-        (Some((rm, _)), Some((rp, _))) => {
+        (Some(rm), Some(rp)) => {
             let c = rm - 2.0 * r0 + rp;
             let shift = if c < 0.0 {
                 (0.5 * (rm - rp) / c).clamp(-0.5, 0.5)
@@ -394,6 +432,18 @@ mod tests {
         let rec = simulate(&sc, 5).recording;
         let e = clock_offset(&rec, 1.0, 0.0, 30.0).expect_err("refused");
         assert!(e.reason.contains("hardly turned"), "{e}");
+    }
+
+    /// A roll alone: refused as ambiguous, not reported.
+    #[test]
+    fn refuses_a_rotation_about_one_axis() {
+        let mut sc = Scenario::load("moored").expect("built-in");
+        sc.duration_s = 30.0;
+        sc.motion.pitch_amp_deg = 0.0;
+        sc.motion.yaw_amp_deg = 0.0;
+        let rec = simulate(&sc, 5).recording;
+        let e = clock_offset(&rec, 1.0, 0.0, 30.0).expect_err("refused");
+        assert!(e.reason.contains("one axis"), "{e}");
     }
 
     /// An offset beyond the search: refused at the edge, not reported as the edge.
