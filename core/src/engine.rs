@@ -223,6 +223,23 @@ pub struct Counters {
     pub resets: u32,
 }
 
+/// What became of the master messages beyond [`Counters`] (kept beside the master
+/// queue, not in `Counters`, so the link's `Status` is unchanged): with `Counters`'
+/// matched, stale, out-of-order and dropped, every message handed to
+/// [`Engine::push_master`] is counted once.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MasterFate {
+    /// Refused for a non-finite time or value.
+    pub non_finite: u32,
+    /// Used to start (or restart, after a reset) the slave solution, not matched.
+    pub initialized: u32,
+    /// Taken from the queue once due, but the slave solution could not be read at
+    /// their time (no IMU interval before it yet).
+    pub unmatched: u32,
+    /// Still waiting in the queue for the slave (at the end of a run: never matched).
+    pub pending: u32,
+}
+
 /// The calibrated quantities with their standard deviations.
 #[derive(Clone, Copy, Debug)]
 pub struct Estimates<T> {
@@ -306,6 +323,8 @@ pub struct Engine<T: Real, const S: usize = N> {
     prev_master: Option<PrevMaster<T>>,
     last_update_t: f64,
     counters: Counters,
+    /// What became of the master messages `counters` does not count.
+    fate: MasterFate,
     /// Per channel (velocity, attitude, rate): consecutive messages with a gated axis.
     gated_streaks: [u32; 3],
     /// Nominal master delay τ̂ (s) when the layout carries `time_delay`: a master
@@ -360,6 +379,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             prev_master: None,
             last_update_t: 0.0,
             counters: Counters::default(),
+            fate: MasterFate::default(),
             gated_streaks: [0; 3],
             delay_s: 0.0,
             past_master_rates: Deque::new(),
@@ -401,6 +421,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         self.prev_master = None;
         self.last_update_t = 0.0;
         self.counters = Counters::default();
+        self.fate = MasterFate::default();
         self.gated_streaks = [0; 3];
         self.delay_s = cfg.initial_delay_s;
         self.past_master_rates.clear();
@@ -492,6 +513,15 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// Input counters.
     pub fn counters(&self) -> Counters {
         self.counters
+    }
+
+    /// What became of the master messages [`Engine::counters`] does not count, the
+    /// ones still queued included.
+    pub fn master_fate(&self) -> MasterFate {
+        MasterFate {
+            pending: self.pending.len() as u32,
+            ..self.fate
+        }
     }
 
     /// Filter health.
@@ -595,6 +625,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             && msg.v_n.iter().all(|v| v.is_finite())
             && msg.w_ib_bm.is_none_or(|w| w.iter().all(|v| v.is_finite()));
         if !finite {
+            self.fate.non_finite += 1;
             return Err(EngineError::NonFinite);
         }
         let newest_queued = self
@@ -875,6 +906,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             }
             let _ = self.pending.pop_front();
             if self.strapdown.is_none() {
+                self.fate.initialized += 1;
                 self.initialize(&msg);
                 continue;
             }
@@ -884,7 +916,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
                     let _ = reports.push(r);
                 }
                 Err(AlignError::TooOld) => self.counters.master_stale += 1,
-                Err(AlignError::NotYet) => {}
+                Err(AlignError::NotYet) => self.fate.unmatched += 1,
             }
             self.prev_master = Some(PrevMaster {
                 t: msg.t,

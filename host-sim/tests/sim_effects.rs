@@ -103,6 +103,22 @@ fn master_delay_shifts_master_truth_back_by_tau() {
     }
 }
 
+/// A master early by 0.02 s (τ = −0.02, a clock offset's sign) is the undelayed master
+/// two periods *later*: its attitude at stamp `t` is the base run's at `t + 0.02`.
+#[test]
+fn master_early_shifts_master_truth_forward() {
+    let base = quiet();
+    let mut early = base.clone();
+    early.undeclared.master_delay_s = -0.02;
+    let (b, e) = (run(&base), run(&early));
+    assert_eq!(b.imu, e.imu);
+    for (k, m) in e.master.iter().enumerate().take(b.master.len() - 2) {
+        assert_eq!(m.t, b.master[k].t);
+        let m2 = &b.master[k + 2];
+        assert!(angle(&q(m), &q(m2)) < 1e-12, "attitude at {}", m.t);
+    }
+}
+
 /// A lever-arm error δr moves the true slave, not the declared arm: the slave's
 /// increments are those of a scenario whose surveyed arm is `r0 + δr`, the metadata
 /// still says `r0`, and the change of the slave velocity over one IMU interval is
@@ -341,7 +357,8 @@ fn undeclared_values_are_validated() {
         let err = sc.validate().unwrap_err();
         assert!(err.contains(key), "{err}");
     };
-    for tau in [-0.001, 1.5, f64::NAN, f64::INFINITY] {
+    // A negative delay is a master early on the slave (a clock offset), down to −1 s.
+    for tau in [-1.001, 1.5, f64::NAN, f64::INFINITY] {
         check(
             &|sc| sc.undeclared.master_delay_s = tau,
             "`undeclared.master_delay_s`",

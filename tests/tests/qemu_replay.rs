@@ -395,6 +395,8 @@ fn paper_with_effects(duration_s: f64, dir: &Path, effects: &[Effect]) -> PathBu
         },
         out: rec_dir.clone(),
         drawn: None,
+        clock_offset: None,
+        mounting_deg: None,
     })
     .expect("flexcal simulate");
     let declared = std::fs::read_to_string(rec_dir.join("calibrate.toml")).expect("calibrate.toml");

@@ -142,6 +142,12 @@ pub struct CalibConfig {
     /// holds the coarse alignment's (`calib::mounting`), found before the filter.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mounting_estimate_rad: Option<[f64; 3]>,
+    /// How late the master's time tags are on the slave's (s; negative: early): every
+    /// master message stamped `t` is handed to the filter stamped `t − offset`. Absent:
+    /// found from the body rates before the filter (`calib::prefilter`) and applied
+    /// when the engine could not follow it as a delay.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub master_clock_offset_s: Option<f64>,
     /// Treat this configuration as the starting point of a model learned from the
     /// recording (`flexcal calibrate`, `diagnose`, `montecarlo` learn first), instead of
     /// the fixed truth about the data (false, the default for a file).
@@ -191,6 +197,7 @@ impl CalibConfig {
             master_error_correlation_s: flexcal_core::augment::MASTER_ERROR_CORRELATION_S,
             initial_delay_s: 0.0,
             mounting_estimate_rad: None,
+            master_clock_offset_s: None,
             tune: false,
         }
     }
@@ -361,6 +368,12 @@ impl CalibConfig {
                     "`mounting_estimate_rad` must be a rotation vector of at most π rad, got {m:?}"
                 ));
             }
+        }
+        if self.master_clock_offset_s.is_some_and(|v| !v.is_finite()) {
+            return Err(format!(
+                "`master_clock_offset_s` must be a number of seconds, got {:?}",
+                self.master_clock_offset_s
+            ));
         }
         let max = flexcal_core::engine::MAX_DELAY_S;
         if !(self.initial_delay_s.is_finite() && self.initial_delay_s.abs() <= max) {

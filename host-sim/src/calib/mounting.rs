@@ -19,6 +19,7 @@
 //! to turn about at least two axes; a ship's roll, pitch and yaw do, a slave at rest on
 //! a quay does not, and then the alignment says so and the filter starts from zero.
 
+use super::clock::SlaveAngles;
 use crate::recording::Recording;
 use flexcal_core::rotation::log_so3;
 use nalgebra::{Matrix3, Vector3};
@@ -49,6 +50,18 @@ pub struct CoarseMounting {
 
 /// Finds the mounting from the first `window_s` seconds of `rec`.
 pub fn coarse_mounting(rec: &Recording, window_s: f64) -> Result<CoarseMounting, String> {
+    coarse_mounting_after_clock(rec, window_s, 0.0)
+}
+
+/// [`coarse_mounting`] with the master's time tags `clock_offset_s` late on the slave's
+/// (`calib::clock`): the master's block `(t_a, t_b]` is compared with the slave's
+/// `(t_a − τ, t_b − τ]`. Blocks of 0.2 s need the clocks aligned to a small fraction of
+/// a block: at τ = 0.4 s unaligned, no block shares an instant with its partner.
+pub fn coarse_mounting_after_clock(
+    rec: &Recording,
+    window_s: f64,
+    clock_offset_s: f64,
+) -> Result<CoarseMounting, String> {
     let Some(first) = rec.master.first() else {
         return Err("no master messages to align the mounting with".into());
     };
@@ -60,12 +73,15 @@ pub fn coarse_mounting(rec: &Recording, window_s: f64) -> Result<CoarseMounting,
         .filter(|m| m.t <= end)
         .step_by(stride)
         .collect();
+    let slave = SlaveAngles::new(rec);
+    let tau = clock_offset_s;
     let mut pairs = Vec::new();
     for w in masters.windows(2) {
         let [a, b] = [w[0], w[1]];
-        if let (Some(phi_m), Some(phi_s)) =
-            (rec.master_rotation(a.t, b.t), slave_rotation(rec, a.t, b.t))
-        {
+        if let (Some(phi_m), Some(phi_s)) = (
+            rec.master_rotation(a.t, b.t),
+            slave.rotation(a.t - tau, b.t - tau),
+        ) {
             pairs.push((phi_m, phi_s));
         }
     }
@@ -113,31 +129,39 @@ pub fn coarse_mounting(rec: &Recording, window_s: f64) -> Result<CoarseMounting,
     })
 }
 
-/// The slave's gyro increments summed over `(ta, tb]` (rad, slave body): each IMU sample
-/// covers `(t_prev, t]` and is shared in proportion to its overlap. `None` when the IMU
-/// samples do not cover the interval.
-fn slave_rotation(rec: &Recording, ta: f64, tb: f64) -> Option<Vector3<f64>> {
-    let i0 = rec.imu.partition_point(|s| s.t <= ta);
-    let mut prev = if i0 == 0 {
-        rec.imu_t0
-    } else {
-        rec.imu.get(i0 - 1)?.t
-    };
-    if prev > ta {
-        return None;
+/// The rotation vector of the same rotation with its angle within [0, π] (a mounting
+/// reported within ±180°): the engine adds its corrections to `μ̂` as a vector, which
+/// leaves it longer than π when the mounting is near a half turn.
+pub fn within_half_turn(v: [f64; 3]) -> [f64; 3] {
+    let n = Vector3::from(v).norm();
+    if !n.is_finite() || n <= std::f64::consts::PI {
+        return v;
     }
-    let mut sum = Vector3::zeros();
-    for s in rec.imu.get(i0..)? {
-        let (lo, hi) = (prev.max(ta), s.t.min(tb));
-        if hi > lo && s.t > prev {
-            sum += Vector3::from(s.dtheta_rad) * ((hi - lo) / (s.t - prev));
-        }
-        if s.t >= tb {
-            return Some(sum);
-        }
-        prev = s.t;
+    let tau = 2.0 * std::f64::consts::PI;
+    let m = n - tau * ((n + std::f64::consts::PI) / tau).floor();
+    v.map(|x| x * m / n)
+}
+
+/// Of the rotation vectors of the rotation `v` (its angle plus whole turns, about its
+/// axis), the one nearest `to`: a truth of 180° about z is `[0, 0, π]` and `[0, 0, −π]`,
+/// and an estimate is scored against the one it is near.
+pub fn nearest_equivalent(v: [f64; 3], to: [f64; 3]) -> [f64; 3] {
+    let v = Vector3::from(v);
+    let n = v.norm();
+    if !n.is_finite() || n <= 0.0 {
+        return v.into();
     }
-    None
+    let tau = 2.0 * std::f64::consts::PI;
+    [-1.0, 0.0, 1.0]
+        .map(|k| v * ((n + k * tau) / n))
+        .into_iter()
+        .min_by(|a, b| {
+            (a - Vector3::from(to))
+                .norm()
+                .total_cmp(&(b - Vector3::from(to)).norm())
+        })
+        .unwrap_or(v)
+        .into()
 }
 
 #[cfg(test)]
@@ -168,5 +192,53 @@ mod tests {
             eprintln!("mounting {mis:?}°: found to {err_deg:.4}°");
             assert!(err_deg < 0.1, "{mis:?}: off by {err_deg}° ({found:?})");
         }
+    }
+
+    /// With the master's tags 0.4 s late, the blocks compare nothing until the clock
+    /// offset moves them back.
+    #[test]
+    fn finds_the_mounting_once_the_clocks_are_aligned() {
+        let mut sc = Scenario::load("moored").expect("built-in");
+        sc.duration_s = 60.0;
+        sc.misalignment_deg = [0.0, 90.0, 0.0];
+        sc.undeclared.master_delay_s = 0.4;
+        let rec = simulate(&sc, 3).recording;
+        let truth =
+            nalgebra::Rotation3::from_scaled_axis(Vector3::new(0.0, 90f64.to_radians(), 0.0));
+        let err = |m: &CoarseMounting| {
+            let got = nalgebra::Rotation3::from_scaled_axis(Vector3::from(m.rotation_vector_rad));
+            (truth.inverse() * got).angle().to_degrees()
+        };
+        let aligned = coarse_mounting_after_clock(&rec, 60.0, 0.4).expect("aligns");
+        assert!(err(&aligned) < 0.1, "{aligned:?}");
+        let unaligned = coarse_mounting(&rec, 60.0);
+        assert!(
+            unaligned.as_ref().map_or(true, |m| err(m) > 1.0),
+            "{unaligned:?}"
+        );
+    }
+
+    /// A rotation vector longer than π comes back within it, the same rotation; a
+    /// truth of a half turn is scored against its representation nearest the estimate.
+    #[test]
+    fn half_turns_are_reported_within_180_degrees() {
+        let pi = std::f64::consts::PI;
+        for v in [
+            [0.0, 0.0, 1.01 * pi],
+            [2.5, -2.5, 7.85],
+            [0.3, 0.0, 0.0],
+            [0.0, 0.0, -3.0 * pi - 0.1],
+        ] {
+            let w = within_half_turn(v);
+            let n = Vector3::from(w).norm();
+            assert!(n <= pi + 1e-12, "{v:?} -> {w:?}");
+            let (a, b) = (
+                nalgebra::Rotation3::from_scaled_axis(Vector3::from(v)),
+                nalgebra::Rotation3::from_scaled_axis(Vector3::from(w)),
+            );
+            assert!((a.matrix() - b.matrix()).norm() < 1e-12, "{v:?} -> {w:?}");
+        }
+        let near = nearest_equivalent([0.0, 0.0, pi], [0.0, 0.0, -pi + 0.01]);
+        assert!((near[2] + pi).abs() < 1e-12, "{near:?}");
     }
 }

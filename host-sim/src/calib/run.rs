@@ -3,11 +3,14 @@
 //! its time of validity), and gathers estimates, innovations and covariance checks.
 
 use super::config::CalibConfig;
+use super::mounting::within_half_turn;
 use super::residuals::InnovationSummary;
 use crate::recording::{ImuSample, MasterMsg, Recording};
 use flexcal_core::augment::Effect;
 use flexcal_core::earth::Position;
-use flexcal_core::engine::{Counters, Engine, ImuIncrement, MasterNav, MatchReport, StepReports};
+use flexcal_core::engine::{
+    Counters, Engine, ImuIncrement, MasterFate, MasterNav, MatchReport, StepReports,
+};
 use flexcal_core::kalman::Health;
 use flexcal_core::model::{BA, BG, MU};
 use flexcal_core::real::Real;
@@ -96,6 +99,72 @@ pub struct EffectRow {
     pub wald: f64,
 }
 
+/// Every master message of a run by what became of it: the fields other than `given`,
+/// `before_slave_start` and `after_slave_end` add up to `given`, so none is lost
+/// without a count.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct MasterAccount {
+    /// Handed to the engine.
+    pub given: u32,
+    /// Matched (each made a filter update).
+    pub matched: u32,
+    /// Used to start or restart the slave solution.
+    pub initialized: u32,
+    /// Refused as older than the slave's alignment buffer.
+    pub stale: u32,
+    /// Refused as not later than the message before.
+    pub out_of_order: u32,
+    /// Refused for a non-finite value.
+    pub non_finite: u32,
+    /// Dropped by the engine's full master queue (`PENDING_DEPTH` messages).
+    pub dropped_by_queue: u32,
+    /// Due, but the slave solution could not be read at their time.
+    pub unmatched: u32,
+    /// Still queued when the slave's samples ended.
+    pub left_pending: u32,
+    /// Stamped (after the clock shift) before the slave's first line: not handed to the
+    /// engine, which has nothing to match them with (handed over in one burst at the
+    /// first sample, they overflowed the queue and started the solution from a
+    /// message older than the slave).
+    pub before_slave_start: u32,
+    /// Read after the slave's last sample: not handed to the engine.
+    pub after_slave_end: u32,
+}
+
+impl MasterAccount {
+    fn new(given: u32, c: &Counters, f: &MasterFate, outside: [u32; 2]) -> Self {
+        Self {
+            given,
+            matched: c.master_matched,
+            initialized: f.initialized,
+            stale: c.master_stale,
+            out_of_order: c.master_out_of_order,
+            non_finite: f.non_finite,
+            dropped_by_queue: c.master_dropped,
+            unmatched: f.unmatched,
+            left_pending: f.pending,
+            before_slave_start: outside[0],
+            after_slave_end: outside[1],
+        }
+    }
+
+    /// Messages handed to the engine that made no update and did not start the
+    /// solution.
+    pub fn lost(&self) -> u32 {
+        self.stale
+            + self.out_of_order
+            + self.non_finite
+            + self.dropped_by_queue
+            + self.unmatched
+            + self.left_pending
+    }
+
+    /// Whether every message handed to the engine is counted exactly once.
+    pub fn balanced(&self) -> bool {
+        self.matched + self.initialized + self.lost() == self.given
+    }
+}
+
 /// Everything a calibration run produced.
 pub struct CalibResult {
     /// Estimates after every master update ([`run`]), or a thinned set that holds the
@@ -107,6 +176,9 @@ pub struct CalibResult {
     pub summary: InnovationSummary,
     /// Input counters.
     pub counters: Counters,
+    /// Every master message by what became of it (`None` from the board, whose
+    /// `Status` carries the counters only).
+    pub master: Option<MasterAccount>,
     /// Filter health.
     pub health: Health,
     /// Covariance checks.
@@ -186,6 +258,8 @@ pub struct RunEnd {
     pub summary: InnovationSummary,
     /// Input counters.
     pub counters: Counters,
+    /// Every master message by what became of it.
+    pub master: MasterAccount,
     /// Filter health.
     pub health: Health,
     /// Covariance checks.
@@ -209,6 +283,7 @@ impl RunEnd {
             innovations,
             summary: self.summary,
             counters: self.counters,
+            master: Some(self.master),
             health: self.health,
             covariance: self.covariance,
             final_cov9: self.final_cov9,
@@ -325,7 +400,19 @@ fn run_generic<T: Real, const S: usize>(
     engine
         .push_imu(start, &mut reports)
         .map_err(|e| format!("IMU start at t = {}: {e:?}", src.imu_t0))?;
-    let mut masters = src.master.peekable();
+    // The clock alignment found before the filter (or configured): the master's tags
+    // moved onto the slave's time base.
+    let shift = cfg.master_clock_offset_s.unwrap_or(0.0);
+    let mut masters = src
+        .master
+        .map(|m| {
+            m.map(|mut m| {
+                m.t -= shift;
+                m
+            })
+        })
+        .peekable();
+    let (mut given, mut before_slave_start) = (0u32, 0u32);
     let mut handle =
         |engine: &Engine<T, S>, reports: &[MatchReport<T>], cov: &mut CovarianceCheck| {
             for r in reports {
@@ -362,7 +449,7 @@ fn run_generic<T: Real, const S: usize>(
                     gyro_bias_sigma: to3(&e.gyro_bias_sigma),
                     accel_bias: to3(&e.accel_bias),
                     accel_bias_sigma: to3(&e.accel_bias_sigma),
-                    misalignment: to3(&e.misalignment),
+                    misalignment: within_half_turn(to3(&e.misalignment)),
                     misalignment_sigma: to3(&e.misalignment_sigma),
                     flexure: to3(&e.flexure),
                     flexure_sigma: to3(&e.flexure_sigma),
@@ -396,18 +483,25 @@ fn run_generic<T: Real, const S: usize>(
         handle(&engine, &reports, &mut cov);
         while let Some(m) = masters.next_if(|m| !matches!(m, Ok(m) if m.t > s.t)) {
             let m = m?;
+            if m.t < src.imu_t0 {
+                before_slave_start += 1;
+                continue;
+            }
             if !frozen && opts.freeze_at_s.is_some_and(|t| m.t >= t) {
                 engine.freeze_calibration();
                 frozen = true;
             }
             // Refused messages are counted by the engine and reported in the summary;
             // the matches a call made before refusing (a queue overflow) are kept.
+            given += 1;
             let _ = engine.push_master(master_nav::<T>(&m), &mut reports);
             handle(&engine, &reports, &mut cov);
         }
     }
+    let mut after_slave_end = 0u32;
     for m in masters {
         m?;
+        after_slave_end += 1;
     }
     let p = engine.filter().covariance();
     let idx = [BG, BG + 1, BG + 2, BA, BA + 1, BA + 2, MU, MU + 1, MU + 2];
@@ -415,6 +509,12 @@ fn run_generic<T: Real, const S: usize>(
     Ok(RunEnd {
         summary,
         counters: engine.counters(),
+        master: MasterAccount::new(
+            given,
+            &engine.counters(),
+            &engine.master_fate(),
+            [before_slave_start, after_slave_end],
+        ),
         health: engine.health(),
         covariance: cov,
         final_cov9,

@@ -1,6 +1,7 @@
 //! Scoring against `truth.csv`: final errors and the normalized estimation error
 //! squared (NEES) of the calibrated quantities.
 
+use super::mounting::nearest_equivalent;
 use super::run::CalibResult;
 use crate::recording::Truth;
 use nalgebra::SVector;
@@ -29,7 +30,8 @@ pub fn score(res: &CalibResult, truth: &Truth) -> Option<Score> {
         .0;
     let bg = truth.vec3(["bgx", "bgy", "bgz"], row)?;
     let ba = truth.vec3(["bax", "bay", "baz"], row)?;
-    let mu = truth.vec3(["mux", "muy", "muz"], row)?;
+    // A mounting near a half turn has two rotation vectors: the one the estimate is near.
+    let mu = nearest_equivalent(truth.vec3(["mux", "muy", "muz"], row)?, last.misalignment);
     let d = |e: [f64; 3], t: [f64; 3]| [e[0] - t[0], e[1] - t[1], e[2] - t[2]];
     let (eg, ea, em) = (
         d(last.gyro_bias, bg),

@@ -93,6 +93,8 @@ pub fn run(a: &Args) -> Result<(), String> {
             },
             out: a.out.join(scenario),
             drawn: None,
+            clock_offset: None,
+            mounting_deg: None,
         })?;
     }
     println!(

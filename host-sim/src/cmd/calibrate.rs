@@ -3,6 +3,7 @@
 
 use crate::calib::config::CalibConfig;
 use crate::calib::flexure_id::identify_flexure;
+use crate::calib::prefilter::{self, PreFilter, CLOCK_SEARCH_S, CLOCK_WINDOW_S};
 use crate::calib::run::{run_into, CalibResult, Precision, RunOptions, Source};
 use crate::calib::score::{score, Score};
 use crate::cmd::common::ModelArgs;
@@ -101,6 +102,22 @@ pub struct Prepared {
     pub learned: Option<Learned>,
     /// The configuration file declared (`--config`, else the recording's `calibrate.toml`).
     pub config_file: Option<PathBuf>,
+    /// What was done before the filter (clocks, mounting).
+    pub pre_filter: PreFilter,
+}
+
+/// The steps before the filter on `rec` (`calib::prefilter`), written into `cfg` and
+/// said on stderr.
+fn pre_filter(
+    rec: &crate::recording::Recording,
+    cfg: &mut CalibConfig,
+    learning: bool,
+) -> PreFilter {
+    let p = prefilter::prepare(rec, cfg, learning);
+    for l in p.lines() {
+        eprintln!("flexcal: {l}");
+    }
+    p
 }
 
 /// Learns the model of a recording from `start` and says on stderr what it found.
@@ -176,6 +193,7 @@ pub fn prepare_config(
             return Err("internal: declared configuration vanished".into());
         };
         let mut cfg = apply_declared(cfg, &origin, model, rec.master_has_rate())?;
+        let pre_filter = pre_filter(rec, &mut cfg, false);
         let flexure_source = choose_flexure(rec, &mut cfg);
         eprintln!("flexcal: flexure model: {flexure_source}");
         return Ok(Prepared {
@@ -183,6 +201,7 @@ pub fn prepare_config(
             flexure_source,
             learned: None,
             config_file,
+            pre_filter,
         });
     }
     let (nothing, inc) = start_from_nothing(rec);
@@ -198,6 +217,7 @@ pub fn prepare_config(
     };
     model.apply(&mut start)?;
     drop_rate_matching_without_rate(rec.master_has_rate(), &mut start);
+    let pre_filter = pre_filter(rec, &mut start, true);
     let learned = learn_and_say(rec, &start, &origin, inc)?;
     Ok(Prepared {
         cfg: learned.config.clone(),
@@ -211,6 +231,7 @@ pub fn prepare_config(
         ),
         learned: Some(learned),
         config_file,
+        pre_filter,
     })
 }
 
@@ -291,13 +312,29 @@ pub fn calibrate(
         let Some((cfg, origin)) = declared else {
             return Err("internal: declared configuration vanished".into());
         };
-        let cfg = apply_declared(cfg, &origin, model, stream.master.has_rate())?;
+        let mut cfg = apply_declared(cfg, &origin, model, stream.master.has_rate())?;
+        // The first seconds of the recording, read once more, unless the configuration
+        // gives the clock offset (then only the recording's rates are read).
+        let window = if cfg.master_clock_offset_s.is_some() {
+            crate::recording::Recording {
+                meta: stream.meta.clone(),
+                imu_t0: stream.slave.t0(),
+                imu: Vec::new(),
+                master: Vec::new(),
+                truth: None,
+            }
+        } else {
+            progress.phase("aligning the clocks");
+            prefilter::read_window(dir, CLOCK_WINDOW_S + CLOCK_SEARCH_S + 1.0)?
+        };
+        let pre_filter = pre_filter(&window, &mut cfg, false);
         eprintln!("flexcal: flexure model: configured");
         Prepared {
             cfg,
             flexure_source: "configured".into(),
             learned: None,
             config_file: Some(origin),
+            pre_filter,
         }
     };
     let scan = RefCell::new(Scan::new(
@@ -400,6 +437,7 @@ pub fn run(a: &Args) -> Result<(), String> {
         flexure_source,
         learned,
         config_file,
+        pre_filter,
     } = &c.prepared;
     let (res, verdict, duration) = (&c.res, &c.verdict, c.duration_s);
     let doc = summary::summary_json(
@@ -411,6 +449,9 @@ pub fn run(a: &Args) -> Result<(), String> {
         c.score.as_ref(),
     );
     let mut doc = with_learned(doc, learned.as_ref());
+    if let Some(obj) = doc.as_object_mut() {
+        obj.insert("pre_filter".into(), pre_filter.json());
+    }
     verdict.insert_into(&mut doc);
     if let Some(l) = learned {
         write_model_toml(&a.out, l)?;
@@ -468,6 +509,12 @@ pub fn run(a: &Args) -> Result<(), String> {
         res.nis_mean(),
         res.summary.gated
     );
+    for l in pre_filter.lines() {
+        println!("  {l}");
+    }
+    for l in summary::master_lines(res) {
+        println!("  {l}");
+    }
     if let Some(s) = c.score {
         let f = |x: [f64; 3], u: Unit| list(&x, u);
         println!(

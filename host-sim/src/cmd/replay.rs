@@ -98,6 +98,9 @@ pub fn stream_messages(
         dv_b: [0.0; 3],
     }));
     let f = |v: [f64; 3]| v.map(|x| x as f32);
+    // The clock alignment found before the filter, as `calibrate` applies it: the
+    // board receives the master's tags on the slave's time base.
+    let shift = cfg.master_clock_offset_s.unwrap_or(0.0);
     let mut masters = rec.master.iter().peekable();
     let mut last_t = rec.imu_t0;
     for s in &rec.imu {
@@ -107,9 +110,9 @@ pub fn stream_messages(
             dv_b: f(s.dv_mps),
         }));
         last_t = s.t;
-        while let Some(m) = masters.next_if(|m| m.t <= s.t) {
+        while let Some(m) = masters.next_if(|m| m.t - shift <= s.t) {
             out.push(Message::MasterNav(MasterNavMsg {
-                t: m.t,
+                t: m.t - shift,
                 q_bm_n: m.q_bm_n,
                 v_n: f(m.v_n_mps),
                 lat_rad: m.lat_deg.to_radians(),
@@ -570,6 +573,7 @@ pub fn result_from_board(run: &QemuRun) -> Result<CalibResult, String> {
         innovations: Vec::new(),
         summary: Default::default(),
         counters: status.engine,
+        master: None,
         health: status.health,
         covariance: CovarianceCheck::default(),
         final_cov9,
@@ -611,6 +615,7 @@ pub fn replay(a: &Args) -> Result<Replayed, String> {
         flexure_source,
         learned,
         config_file,
+        ..
     } = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &a.model)?;
     let msgs = stream_messages(&rec, &cfg, a.estimates_every, a.status_every);
     let frames = encode_frames(&msgs)?;

@@ -23,6 +23,33 @@ pub struct Args {
     /// the recording directory, not in it.
     #[arg(long, requires = "blind")]
     pub drawn: Option<PathBuf>,
+    /// How late the master's time tags are on the slave's (s, in [−1, 1]; negative:
+    /// early): a clock offset, injected as `undeclared.master_delay_s`. Overrides the
+    /// scenario's (a blind draw's too, and the drawn file says so).
+    #[arg(long, allow_hyphen_values = true)]
+    pub clock_offset: Option<f64>,
+    /// The slave's mounting on the master, `x,y,z` (rotation vector of `C_bs^bm`,
+    /// degrees): overrides the scenario's `misalignment_deg` (a blind draw's too).
+    #[arg(long, value_delimiter = ',', num_args = 1, allow_hyphen_values = true)]
+    pub mounting_deg: Option<Vec<f64>>,
+}
+
+/// The scenario with the command line's overrides (clock offset, mounting), checked.
+fn with_overrides(mut sc: crate::sim::Scenario, a: &Args) -> Result<crate::sim::Scenario, String> {
+    if let Some(tau) = a.clock_offset {
+        sc.undeclared.master_delay_s = tau;
+    }
+    if let Some(m) = &a.mounting_deg {
+        let [x, y, z] = m[..] else {
+            return Err(format!(
+                "--mounting-deg wants three numbers x,y,z (degrees), got {}",
+                m.len()
+            ));
+        };
+        sc.misalignment_deg = [x, y, z];
+    }
+    sc.validate()?;
+    Ok(sc)
 }
 
 /// Where a blind draw is written by default: `OUT.drawn.toml`, beside `OUT`.
@@ -37,7 +64,7 @@ pub fn default_drawn_path(out: &std::path::Path) -> PathBuf {
 
 /// Runs `flexcal simulate`.
 pub fn run(a: &Args) -> Result<(), String> {
-    let sc = a.scenario.load()?;
+    let sc = with_overrides(a.scenario.load()?, a)?;
     let seed = a.scenario.seed;
     let out = simulate(&sc, seed);
     write_recording(&a.out, &out.recording).map_err(|e| e.to_string())?;

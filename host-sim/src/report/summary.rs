@@ -67,6 +67,8 @@ pub fn summary_json(
             "master_stale": res.counters.master_stale,
             "master_out_of_order": res.counters.master_out_of_order,
             "master_dropped": res.counters.master_dropped,
+            "master": res.master,
+            "master_lost": res.master.map(|m| m.lost()),
         },
         "health": {
             "non_finite": res.health.non_finite,
@@ -91,6 +93,39 @@ pub fn summary_json(
         }
     }
     v
+}
+
+/// What became of the master messages, in lines for the printed summary: the
+/// account, then a warning when any message handed to the engine was lost (made no
+/// update and started nothing).
+pub fn master_lines(res: &CalibResult) -> Vec<String> {
+    let Some(m) = res.master else {
+        return Vec::new();
+    };
+    let mut out = vec![format!(
+        "master messages: {} given, {} matched, {} started the solution; lost: {} dropped by the {}-message queue, {} due but unmatched, {} left queued, {} stale, {} out of order, {} non-finite; outside the slave's samples: {} before, {} after",
+        m.given,
+        m.matched,
+        m.initialized,
+        m.dropped_by_queue,
+        flexcal_core::engine::PENDING_DEPTH,
+        m.unmatched,
+        m.left_pending,
+        m.stale,
+        m.out_of_order,
+        m.non_finite,
+        m.before_slave_start,
+        m.after_slave_end
+    )];
+    if m.lost() > 0 {
+        out.push(format!(
+            "WARNING: {} of {} master messages ({:.1}%) made no filter update: see the counts above",
+            m.lost(),
+            m.given,
+            100.0 * f64::from(m.lost()) / f64::from(m.given.max(1))
+        ));
+    }
+    out
 }
 
 /// The final estimate of each augmented effect: name, unit, values, σ and the Wald

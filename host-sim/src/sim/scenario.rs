@@ -213,9 +213,11 @@ pub struct SmoothError {
 #[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields)]
 pub struct Undeclared {
-    /// Delay τ of the master's output (s, in [0, 1]): the message stamped `t` carries
+    /// Delay τ of the master's output (s, in [−1, 1]): the message stamped `t` carries
     /// the attitude, velocity, position and angular rate that were true at `t − τ`
     /// (then the noise, as without delay). The slave IMU and all stamps are unchanged.
+    /// Negative: the master's tags are early — with either sign, beyond the filter's
+    /// reach, a clock offset between the two units (`calib::prefilter`).
     pub master_delay_s: f64,
     /// Error of the surveyed lever arm, master body frame (m): the true static arm is
     /// `lever_arm.r0_m + lever_arm_error_m`, and the truth (slave velocity, position,
@@ -328,9 +330,9 @@ impl Undeclared {
     /// Checks values a simulation cannot run with; errors name the key.
     fn validate(&self) -> Result<(), String> {
         let tau = self.master_delay_s;
-        if !(tau.is_finite() && (0.0..=1.0).contains(&tau)) {
+        if !(tau.is_finite() && (-1.0..=1.0).contains(&tau)) {
             return Err(format!(
-                "`undeclared.master_delay_s` must be a number in [0, 1] s, got {tau}"
+                "`undeclared.master_delay_s` must be a number in [-1, 1] s, got {tau}"
             ));
         }
         if let Some(v) = self.lever_arm_error_m.iter().find(|v| !v.is_finite()) {

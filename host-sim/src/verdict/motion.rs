@@ -7,6 +7,7 @@
 
 use super::input::median;
 use super::{g3, Finding, Severity};
+use crate::calib::clock::clock_offset;
 use crate::recording::{Recording, MASTER_FILE, SLAVE_FILE};
 use nalgebra::Vector3;
 
@@ -23,9 +24,7 @@ const MIN_ROTATION_RAD: f64 = 0.01;
 const MIN_WINDOWS: usize = 5;
 /// Largest clock offset searched (s).
 pub const MAX_OFFSET_S: f64 = 5.0;
-/// Correlation of the body rates needed to trust the offset found.
-const MIN_CORRELATION: f64 = 0.5;
-/// An offset at least this large (s) is a WARN (two steps of the 0.1 s search grid).
+/// An offset at least this large (s) is a WARN.
 pub const OFFSET_WARN_S: f64 = 0.2;
 /// At least this large (s), a FAIL.
 pub const OFFSET_FAIL_S: f64 = 1.0;
@@ -37,7 +36,7 @@ pub fn check(rec: &Recording) -> Vec<Finding> {
     out.extend(accel_scale(rec, &slave));
     out.extend(gyro_scale(rec, &slave));
     out.extend(master_rate_scale(rec));
-    out.extend(time_offset(rec, &slave));
+    out.extend(time_offset(rec));
     out
 }
 
@@ -203,71 +202,26 @@ fn master_rate_scale(rec: &Recording) -> Option<Finding> {
     })
 }
 
-/// The clock offset that best aligns the master's body rate (from its attitude) with
-/// the slave's (from its increments), with its correlation, searched over
-/// ±`MAX_OFFSET_S` on a grid of the master's period (at least 0.1 s). Positive: the
-/// master's time tags are late.
-fn best_offset(rec: &Recording, slave: &Slave) -> Option<(f64, f64)> {
-    let dt = median(rec.master.windows(2).map(|w| w[1].t - w[0].t).collect());
-    let h = dt.max(0.1);
+/// The clock offset from the body rates (`calib::clock`, the implementation
+/// `calibrate` aligns the clocks with), searched over ±`MAX_OFFSET_S` on the whole
+/// recording.
+fn time_offset(rec: &Recording) -> Option<Finding> {
     let (a, b) = (rec.master.first()?.t, rec.master.last()?.t);
-    let n = ((b - a) / h).floor().max(0.0) as usize;
-    let master: Vec<(f64, Vector3<f64>)> = (0..n)
-        .filter_map(|k| {
-            let x = a + k as f64 * h;
-            rec.master_rotation(x, x + h).map(|r| (x, r / h))
-        })
-        .collect();
-    if master.len() < 20 {
-        return None;
-    }
-    let lags = (MAX_OFFSET_S / h).round() as i64;
-    let mut best: Option<(f64, f64)> = None;
-    for l in -lags..=lags {
-        let lag = l as f64 * h;
-        let pairs: Vec<(Vector3<f64>, Vector3<f64>)> = master
-            .iter()
-            .filter_map(|(x, m)| {
-                let (dth, _, cover) = slave.sum(x + lag, x + lag + h)?;
-                (cover > 0.0).then(|| (*m, dth / cover))
-            })
-            .collect();
-        if pairs.len() < 20 {
-            continue;
-        }
-        let k = pairs.len() as f64;
-        let mm = pairs.iter().map(|p| p.0).sum::<Vector3<f64>>() / k;
-        let sm = pairs.iter().map(|p| p.1).sum::<Vector3<f64>>() / k;
-        let (mut c, mut vm, mut vs) = (0.0, 0.0, 0.0);
-        for (m, s) in &pairs {
-            let (dm, ds) = (m - mm, s - sm);
-            c += dm.dot(&ds);
-            vm += dm.norm_squared();
-            vs += ds.norm_squared();
-        }
-        let r = c / (vm * vs).sqrt();
-        if r.is_finite() && best.is_none_or(|(_, br)| r > br) {
-            best = Some((-lag, r));
-        }
-    }
-    best
-}
-
-fn time_offset(rec: &Recording, slave: &Slave) -> Option<Finding> {
-    let (offset, r) = best_offset(rec, slave)?;
-    if r < MIN_CORRELATION {
-        return Some(
-            Finding::new(
+    let found = clock_offset(rec, MAX_OFFSET_S, a, b);
+    let (offset, r) = match found {
+        Ok(c) => (c.offset_s, c.correlation),
+        Err(e) => {
+            let f = Finding::new(
                 Severity::Note,
                 "clock_offset_unchecked",
-                format!(
-                    "the clocks were not compared: the body rates correlate at most {} (≥ {MIN_CORRELATION} needed)",
-                    g3(r)
-                ),
-            )
-            .num("correlation", r),
-        );
-    }
+                format!("the clocks were not compared: {e}"),
+            );
+            return Some(match e.correlation {
+                Some(r) => f.num("correlation", r),
+                None => f,
+            });
+        }
+    };
     let sev = if offset.abs() >= OFFSET_FAIL_S {
         Severity::Fail
     } else if offset.abs() >= OFFSET_WARN_S {

@@ -85,6 +85,19 @@ fn messages(scan: &Scan, res: &CalibResult) -> Vec<Finding> {
             .num("after_last_slave_sample", never as f64)
     };
     let mut out = Vec::new();
+    // Said even when nothing was matched: it is then the reason.
+    if c.master_dropped > 0 {
+        let frac = c.master_dropped as f64 / total as f64;
+        out.push(counts(Finding::new(
+            if frac > DROPPED_FAIL { Severity::Fail } else { Severity::Warn },
+            "queue_dropped",
+            format!(
+                "{} master messages ({:.2}%) were dropped by the engine's {PENDING_DEPTH}-message master queue: they arrived faster than the slave's time reached them (a clock offset, or a master ahead of the slave)",
+                c.master_dropped,
+                100.0 * frac
+            ),
+        )));
+    }
     if res.rows.is_empty() || matched == 0 {
         out.push(counts(Finding::new(
             Severity::Fail,
@@ -110,18 +123,6 @@ fn messages(scan: &Scan, res: &CalibResult) -> Vec<Finding> {
                 c.master_stale,
                 c.master_out_of_order,
                 c.master_dropped
-            ),
-        )));
-    }
-    if c.master_dropped > 0 {
-        let frac = c.master_dropped as f64 / total as f64;
-        out.push(counts(Finding::new(
-            if frac > DROPPED_FAIL { Severity::Fail } else { Severity::Warn },
-            "queue_dropped",
-            format!(
-                "{} master messages ({:.2}%) were dropped by the engine's {PENDING_DEPTH}-message master queue: they arrived faster than the slave's time reached them (a clock offset, or a master ahead of the slave)",
-                c.master_dropped,
-                100.0 * frac
             ),
         )));
     }
@@ -303,10 +304,18 @@ fn sigma_and_prior(cfg: &CalibConfig, res: &CalibResult) -> Vec<Finding> {
         last.misalignment_sigma,
     ];
     let units = [GYRO_BIAS, ACCEL_BIAS, ANGLE];
+    // The misalignment's prior is centred on the mounting the filter started from (the
+    // representation of that rotation nearest the estimate: a half turn has two).
+    let mounting = crate::calib::mounting::nearest_equivalent(
+        cfg.mounting_estimate_rad.unwrap_or([0.0; 3]),
+        last.misalignment,
+    );
+    let centres = [[0.0; 3], [0.0; 3], mounting];
     let mut out = Vec::new();
     for q in 0..3 {
         for a in 0..3 {
             let (x, s, s0) = (values[q][a], sigmas[q][a], prior[q]);
+            let c = centres[q][a];
             let what = format!("{} {}", STATES[q], AXES[a]);
             let u = units[q];
             if observed[q] && s > SIGMA_FALL * s0 {
@@ -327,15 +336,16 @@ fn sigma_and_prior(cfg: &CalibConfig, res: &CalibResult) -> Vec<Finding> {
                     .num("prior_sigma", s0),
                 );
             }
-            if x.abs() > PRIOR_SIGMAS * s0 {
+            if (x - c).abs() > PRIOR_SIGMAS * s0 {
                 out.push(
                     Finding::new(
                         Severity::Warn,
                         "estimate_beyond_prior",
                         format!(
-                            "{what}: estimate {} is {} prior σ from 0 (prior σ {}): the configuration's sensor grade does not fit this sensor",
+                            "{what}: estimate {} is {} prior σ from {} (prior σ {}): the configuration's sensor grade does not fit this sensor",
                             show(x, u),
-                            g3(x.abs() / s0),
+                            g3((x - c).abs() / s0),
+                            if c == 0.0 { "0".to_string() } else { show(c, u) },
                             show(s0, u)
                         ),
                     )

@@ -1,0 +1,217 @@
+//! The steps before the filter: the two clocks aligned from the body rates
+//! (`calib::clock`), then, on a model learned from the recording, the mounting found on
+//! the aligned data (`calib::mounting`).
+//!
+//! The engine follows a master delay itself (`time_delay`, `docs/diagnosis.md`) only
+//! within its reach: a master late by τ is matched from the slave's alignment buffer
+//! (`ALIGN_DEPTH` IMU samples, and at most `MAX_DELAY_S`), a master early by τ waits in
+//! the master queue (`PENDING_DEPTH` messages, which at 100 Hz hold 70 ms: a −0.25 s
+//! starting delay dropped 5993 of 6001 messages of a 60 s recording, all it was given
+//! but the 8 left queued). So an offset found beyond that reach is removed before the
+//! filter — every master time tag moved by it (`CalibConfig::master_clock_offset_s`) —
+//! and what is left for the filter's delay is the coarse estimate's error, a few
+//! milliseconds. An offset within the reach is left to the model (the diagnosis's
+//! `time_delay` candidate measures it to a fraction of a millisecond) and only reported.
+
+use super::clock::{clock_offset, ClockOffset, ClockRefusal};
+use super::config::CalibConfig;
+use super::mounting::{coarse_mounting_after_clock, CoarseMounting};
+use crate::recording::{open_recording, Recording};
+use flexcal_core::engine::{ALIGN_DEPTH, MAX_DELAY_S, PENDING_DEPTH};
+use serde_json::{json, Value};
+use std::path::Path;
+
+/// Half-width of the clock search (s).
+pub const CLOCK_SEARCH_S: f64 = 1.0;
+/// Master time the clocks are compared over, from the first message (s).
+pub const CLOCK_WINDOW_S: f64 = 120.0;
+/// The mounting's window (s): the learner's own (`learn`), so a learned model is found
+/// from the same data whether or not the clocks were moved.
+pub const MOUNTING_WINDOW_S: f64 = 60.0;
+
+/// Where the clock alignment came from.
+#[derive(Clone, Debug)]
+pub enum ClockSource {
+    /// `master_clock_offset_s` in the configuration: not searched.
+    Configured,
+    /// Found from the body rates, or not, with the reason.
+    Searched(Result<ClockOffset, ClockRefusal>),
+}
+
+/// The clock step: what was found, the engine's reach, what was applied.
+#[derive(Clone, Debug)]
+pub struct ClockStep {
+    /// Configured or searched.
+    pub source: ClockSource,
+    /// The largest offset the engine follows as a delay on this recording: master
+    /// early, master late (s).
+    pub reach_s: [f64; 2],
+    /// The shift applied to the master's time tags (s; 0 when none).
+    pub applied_s: f64,
+}
+
+/// Everything done before the filter.
+#[derive(Clone, Debug)]
+pub struct PreFilter {
+    /// The clocks.
+    pub clock: ClockStep,
+    /// The mounting found on the aligned data, when this step found it (a learned model
+    /// after a clock shift; otherwise the learner finds it itself, or the configuration
+    /// gives it).
+    pub mounting: Option<Result<CoarseMounting, String>>,
+}
+
+/// The largest master delay the engine follows on a recording of these rates (s):
+/// `[early, late]`. Early: the queue's `PENDING_DEPTH − 1` master periods; late: the
+/// alignment buffer's `ALIGN_DEPTH − 1` IMU periods; both at most `MAX_DELAY_S`.
+pub fn delay_reach(master_rate_hz: f64, imu_rate_hz: f64) -> [f64; 2] {
+    let early = (PENDING_DEPTH as f64 - 1.0) / master_rate_hz;
+    let late = (ALIGN_DEPTH as f64 - 1.0) / imu_rate_hz;
+    [early.min(MAX_DELAY_S), late.min(MAX_DELAY_S)]
+}
+
+/// The clock step on `rec` for `cfg`: searched unless configured, applied beyond the
+/// engine's reach.
+pub fn clock_step(rec: &Recording, cfg: &CalibConfig) -> ClockStep {
+    let reach_s = delay_reach(rec.meta.master_rate_hz, rec.meta.slave_rate_hz);
+    if let Some(v) = cfg.master_clock_offset_s {
+        return ClockStep {
+            source: ClockSource::Configured,
+            reach_s,
+            applied_s: v,
+        };
+    }
+    let from = rec.master.first().map_or(0.0, |m| m.t);
+    let found = clock_offset(rec, CLOCK_SEARCH_S, from, from + CLOCK_WINDOW_S);
+    let applied_s = match &found {
+        Ok(c) if c.offset_s < -reach_s[0] || c.offset_s > reach_s[1] => c.offset_s,
+        _ => 0.0,
+    };
+    ClockStep {
+        source: ClockSource::Searched(found),
+        reach_s,
+        applied_s,
+    }
+}
+
+/// The steps before the filter on the whole recording `rec`: the clocks, and the
+/// mounting when the model is to be learned (`learning`), none is configured and the
+/// clocks were moved. Writes the clock shift (and that mounting) into `cfg`.
+pub fn prepare(rec: &Recording, cfg: &mut CalibConfig, learning: bool) -> PreFilter {
+    let clock = clock_step(rec, cfg);
+    if clock.applied_s != 0.0 {
+        cfg.master_clock_offset_s = Some(clock.applied_s);
+    }
+    let mounting = (learning && cfg.mounting_estimate_rad.is_none() && clock.applied_s != 0.0)
+        .then(|| {
+            let found = coarse_mounting_after_clock(rec, MOUNTING_WINDOW_S, clock.applied_s);
+            if let Ok(m) = &found {
+                cfg.mounting_estimate_rad = Some(m.rotation_vector_rad);
+            }
+            found
+        });
+    PreFilter { clock, mounting }
+}
+
+/// The first `seconds` of the recording in `dir` (slave samples and master messages
+/// up to that long after the slave's first line; no truth): what the clock step needs
+/// when the run itself streams the recording.
+pub fn read_window(dir: &Path, seconds: f64) -> Result<Recording, String> {
+    let mut s = open_recording(dir).map_err(|e| e.to_string())?;
+    let t0 = s.slave.t0();
+    let end = t0 + seconds;
+    let mut imu = Vec::new();
+    for x in s.slave.by_ref() {
+        let x = x.map_err(|e| e.to_string())?;
+        let past = x.t > end;
+        imu.push(x);
+        if past {
+            break;
+        }
+    }
+    let mut master = Vec::new();
+    for m in s.master.by_ref() {
+        let m = m.map_err(|e| e.to_string())?;
+        if m.t > end {
+            break;
+        }
+        master.push(m);
+    }
+    Ok(Recording {
+        meta: s.meta,
+        imu_t0: t0,
+        imu,
+        master,
+        truth: None,
+    })
+}
+
+impl PreFilter {
+    /// The lines `calibrate` and `diagnose` print about it.
+    pub fn lines(&self) -> Vec<String> {
+        let c = &self.clock;
+        let reach = format!(
+            "the engine follows −{:.0}…+{:.0} ms as a delay",
+            1e3 * c.reach_s[0],
+            1e3 * c.reach_s[1]
+        );
+        let mut out = vec![match &c.source {
+            ClockSource::Configured => format!(
+                "clock: the configuration moves the master's time tags by {:+.4} s (master_clock_offset_s)",
+                -c.applied_s
+            ),
+            ClockSource::Searched(Ok(f)) if c.applied_s != 0.0 => format!(
+                "clock: the master's time tags are {:+.4} ± {:.4} s late on the slave's (body rates correlate {:.4} after the best rotation, {} blocks of {:.2} s): moved by {:+.4} s before the filter ({reach})",
+                f.offset_s, f.sigma_s, f.correlation, f.blocks, f.block_s, -c.applied_s
+            ),
+            ClockSource::Searched(Ok(f)) => format!(
+                "clock: the master's time tags are {:+.4} ± {:.4} s late on the slave's (correlation {:.4}): within reach, left to the model ({reach})",
+                f.offset_s, f.sigma_s, f.correlation
+            ),
+            ClockSource::Searched(Err(e)) => {
+                format!("clock: not aligned before the filter, the tags are used as recorded: {e}")
+            }
+        }];
+        match &self.mounting {
+            Some(Ok(m)) => {
+                let d = m.rotation_vector_rad.map(f64::to_degrees);
+                out.push(format!(
+                    "mounting on the aligned data: [{:.3}, {:.3}, {:.3}]° (rotation vector, {} blocks)",
+                    d[0], d[1], d[2], m.blocks
+                ));
+            }
+            Some(Err(e)) => out.push(format!(
+                "mounting: not found on the aligned data (the filter starts from zero): {e}"
+            )),
+            None => {}
+        }
+        out
+    }
+
+    /// The `pre_filter` object of `summary.json`.
+    pub fn json(&self) -> Value {
+        let c = &self.clock;
+        let clock = match &c.source {
+            ClockSource::Configured => json!({"source": "configuration"}),
+            ClockSource::Searched(Ok(f)) => json!({"source": "body rates", "found": f}),
+            ClockSource::Searched(Err(e)) => {
+                json!({"source": "body rates", "refused": e.reason, "correlation": e.correlation})
+            }
+        };
+        let mut clock = clock;
+        if let Some(o) = clock.as_object_mut() {
+            o.insert("applied_shift_s".into(), json!(0.0 - c.applied_s));
+            o.insert("master_clock_offset_s".into(), json!(c.applied_s));
+            o.insert(
+                "delay_reach_s".into(),
+                json!({"master_early": c.reach_s[0], "master_late": c.reach_s[1]}),
+            );
+        }
+        let mounting = match &self.mounting {
+            Some(Ok(m)) => json!(m),
+            Some(Err(e)) => json!({"refused": e}),
+            None => Value::Null,
+        };
+        json!({"clock": clock, "mounting": mounting})
+    }
+}
