@@ -113,6 +113,29 @@ pub fn prepare(rec: &Recording, cfg: &mut CalibConfig, learning: bool) -> PreFil
     PreFilter { clock, mounting }
 }
 
+/// A master delay found before the filter and within the engine's reach, for the
+/// learner to compensate (`initial_delay_s`) while it learns the model: `τ` when
+/// `|τ| ≥ DELAY_TO_LEARN_WITH_SIGMAS σ`, else none. A delay the model is learned without
+/// is taken by the flexure and the master's error models: blind seed 102 (300 s, a 50 ms
+/// delay) learned a flexure 10–20× its drawn size and a 1.6 mrad smooth master attitude
+/// error, after which `diagnose` estimated the delay at 10.5 ± 0.15 ms
+/// (`docs/model-learning.md`).
+pub fn delay_to_learn_with(p: &PreFilter) -> Option<f64> {
+    match &p.clock.source {
+        ClockSource::Searched(Ok(f))
+            if p.clock.applied_s == 0.0
+                && f.offset_s.abs() >= DELAY_TO_LEARN_WITH_SIGMAS * f.sigma_s =>
+        {
+            Some(f.offset_s)
+        }
+        _ => None,
+    }
+}
+
+/// How many of its σ a delay found before the filter must be for the learner to
+/// compensate it: where it may be zero (a clean recording) the learner is left alone.
+pub const DELAY_TO_LEARN_WITH_SIGMAS: f64 = 3.0;
+
 /// The first `seconds` of the recording in `dir` (slave samples and master messages
 /// up to that long after the slave's first line; no truth): what the clock step needs
 /// when the run itself streams the recording.

@@ -18,6 +18,7 @@ use crate::report::units::{list, Unit, ACCEL_BIAS, ANGLE, GYRO_BIAS};
 use crate::report::{plots, summary};
 use crate::verdict::input::Scan;
 use crate::verdict::Verdict;
+use flexcal_core::augment::Effect;
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 
@@ -104,6 +105,9 @@ pub struct Prepared {
     pub config_file: Option<PathBuf>,
     /// What was done before the filter (clocks, mounting).
     pub pre_filter: PreFilter,
+    /// The master delay (s) the model was learned with, found before the filter
+    /// (`prefilter::delay_to_learn_with`); it is in `cfg.initial_delay_s`.
+    pub learned_with_delay_s: Option<f64>,
 }
 
 /// The steps before the filter on `rec` (`calib::prefilter`), written into `cfg` and
@@ -202,6 +206,7 @@ pub fn prepare_config(
             learned: None,
             config_file,
             pre_filter,
+            learned_with_delay_s: None,
         });
     }
     let (nothing, inc) = start_from_nothing(rec);
@@ -218,6 +223,17 @@ pub fn prepare_config(
     model.apply(&mut start)?;
     drop_rate_matching_without_rate(rec.master_has_rate(), &mut start);
     let pre_filter = pre_filter(rec, &mut start, true);
+    let declares_delay =
+        start.initial_delay_s != 0.0 || start.effects.iter().any(|e| e == Effect::TimeDelay.name());
+    let learned_with_delay_s =
+        prefilter::delay_to_learn_with(&pre_filter).filter(|_| !declares_delay);
+    if let Some(d) = learned_with_delay_s {
+        start.initial_delay_s = d;
+        eprintln!(
+            "flexcal: the model is learned with the master's delay found before the filter compensated ({:+.1} ms, initial_delay_s)",
+            1e3 * d
+        );
+    }
     let learned = learn_and_say(rec, &start, &origin, inc)?;
     Ok(Prepared {
         cfg: learned.config.clone(),
@@ -232,6 +248,7 @@ pub fn prepare_config(
         learned: Some(learned),
         config_file,
         pre_filter,
+        learned_with_delay_s,
     })
 }
 
@@ -335,6 +352,7 @@ pub fn calibrate(
             learned: None,
             config_file: Some(origin),
             pre_filter,
+            learned_with_delay_s: None,
         }
     };
     let scan = RefCell::new(Scan::new(
@@ -438,6 +456,7 @@ pub fn run(a: &Args) -> Result<(), String> {
         learned,
         config_file,
         pre_filter,
+        ..
     } = &c.prepared;
     let (res, verdict, duration) = (&c.res, &c.verdict, c.duration_s);
     let doc = summary::summary_json(

@@ -43,7 +43,13 @@ pub fn run(a: &Args) -> Result<(), String> {
     progress.phase("preparing the declared model");
     // The declared model: no switches (the search adds the effects).
     let prepared = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &ModelArgs::default())?;
-    let cfg = prepared.cfg.clone();
+    let mut cfg = prepared.cfg.clone();
+    // A model learned with a delay found before the filter compensated is diagnosed
+    // without it, the delay left to the `time_delay` candidate, started from it: the
+    // delay is then found, sized and judged by the search's own rules, not assumed.
+    if prepared.learned_with_delay_s.is_some() {
+        cfg.initial_delay_s = 0.0;
+    }
     let candidates = if a.candidates.is_empty() {
         Effect::ALL.to_vec()
     } else {
@@ -57,6 +63,7 @@ pub fn run(a: &Args) -> Result<(), String> {
         budget: a.budget,
         alpha: a.alpha,
         holdout_fraction: a.holdout_fraction,
+        delay_start_s: prepared.learned_with_delay_s,
     };
     progress.phase(&format!(
         "searching {} candidates (budget {})",

@@ -185,6 +185,7 @@ pub fn run_candidates(
     rec: &Recording,
     current: &ModelEval,
     candidates: &[Effect],
+    delay_start_s: Option<f64>,
 ) -> Result<Vec<Result<ModelEval, String>>, String> {
     let threads = std::thread::available_parallelism()
         .map(|n| n.get())
@@ -195,6 +196,9 @@ pub fn run_candidates(
         .map(|e| {
             let mut c = current.cfg.clone();
             c.effects.push(e.name().to_string());
+            if let (Effect::TimeDelay, Some(d)) = (e, delay_start_s) {
+                c.initial_delay_s = d;
+            }
             c
         })
         .collect();

@@ -58,6 +58,10 @@ pub struct Options {
     pub alpha: f64,
     /// Fraction of the recording the held-out check estimates on.
     pub holdout_fraction: f64,
+    /// Where the `time_delay` candidate's estimate starts (s): the master delay found
+    /// before the filter when the model was learned with it compensated
+    /// (`cmd::calibrate::Prepared::learned_with_delay_s`); none: the model's own delay.
+    pub delay_start_s: Option<f64>,
 }
 
 impl Default for Options {
@@ -67,6 +71,7 @@ impl Default for Options {
             budget: 3,
             alpha: 0.01,
             holdout_fraction: 0.7,
+            delay_start_s: None,
         }
     }
 }
@@ -389,7 +394,7 @@ pub fn diagnose(
         if untried.is_empty() {
             break;
         }
-        let runs = evaluate::run_candidates(rec, &current, &untried)?;
+        let runs = evaluate::run_candidates(rec, &current, &untried, opts.delay_start_s)?;
         let mut tests = Vec::new();
         let mut ranked: Vec<(f64, usize)> = Vec::new();
         for (k, (effect, outcome)) in untried.iter().zip(runs.iter()).enumerate() {
