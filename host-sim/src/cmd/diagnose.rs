@@ -2,8 +2,8 @@
 //! residuals keep, add the candidate effect that explains it, repeat; write
 //! `diagnosis.json`, `report.md` and plots.
 
-use crate::calib::config::parse_effect;
-use crate::cmd::calibrate::prepare_config;
+use crate::calib::config::{parse_effect, CalibConfig};
+use crate::cmd::calibrate::{prepare_config, Prepared};
 use crate::cmd::common::ModelArgs;
 use crate::diagnose::{diagnose, report, Options};
 use crate::recording::read_recording;
@@ -36,6 +36,18 @@ pub struct Args {
     pub holdout_fraction: f64,
 }
 
+/// The model the search starts from, and where its `time_delay` candidate starts: a
+/// model learned with a delay found before the filter compensated is diagnosed without
+/// it, the delay left to the candidate, started from it, so that the delay is found,
+/// sized and judged by the search's own rules, not assumed.
+pub fn searched_model(prepared: &Prepared) -> (CalibConfig, Option<f64>) {
+    let mut cfg = prepared.cfg.clone();
+    if prepared.learned_with_delay_s.is_some() {
+        cfg.initial_delay_s = 0.0;
+    }
+    (cfg, prepared.learned_with_delay_s)
+}
+
 /// Runs `flexcal diagnose`.
 pub fn run(a: &Args) -> Result<(), String> {
     let progress = crate::cmd::progress::Progress::start("reading the recording");
@@ -43,13 +55,7 @@ pub fn run(a: &Args) -> Result<(), String> {
     progress.phase("preparing the declared model");
     // The declared model: no switches (the search adds the effects).
     let prepared = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &ModelArgs::default())?;
-    let mut cfg = prepared.cfg.clone();
-    // A model learned with a delay found before the filter compensated is diagnosed
-    // without it, the delay left to the `time_delay` candidate, started from it: the
-    // delay is then found, sized and judged by the search's own rules, not assumed.
-    if prepared.learned_with_delay_s.is_some() {
-        cfg.initial_delay_s = 0.0;
-    }
+    let (cfg, delay_start_s) = searched_model(&prepared);
     let candidates = if a.candidates.is_empty() {
         Effect::ALL.to_vec()
     } else {
@@ -63,7 +69,7 @@ pub fn run(a: &Args) -> Result<(), String> {
         budget: a.budget,
         alpha: a.alpha,
         holdout_fraction: a.holdout_fraction,
-        delay_start_s: prepared.learned_with_delay_s,
+        delay_start_s,
     };
     progress.phase(&format!(
         "searching {} candidates (budget {})",
