@@ -212,14 +212,31 @@ pub fn diagnosis_json(d: &Diagnosis, rec_label: &str, rec: &Recording, command: 
             "rounds": rounds_json(d),
         },
         "supported_not_adopted": supported_not_adopted(d),
-        "recommended_config": {
-            "effects": d.after.cfg.effects,
-            "initial_delay_s": d.after.cfg.initial_delay_s,
-            "velocity_noise_mps": d.after.cfg.velocity_noise_mps,
-            "attitude_noise_rad": d.after.cfg.attitude_noise_rad,
-            "rate_noise_radps": d.after.cfg.rate_noise_radps,
-        },
+        "recommended_config": recommended_config(&d.after.cfg),
     })
+}
+
+/// The configuration keys the diagnosis changed or the steps before the filter found:
+/// what a user's configuration needs to reproduce the final model. The clock shift and
+/// the mounting are there when they were used (absent keys: nothing found), so a run
+/// with the recommended keys starts where the diagnosis did.
+fn recommended_config(cfg: &crate::calib::config::CalibConfig) -> Value {
+    let mut v = json!({
+        "effects": cfg.effects,
+        "initial_delay_s": cfg.initial_delay_s,
+        "velocity_noise_mps": cfg.velocity_noise_mps,
+        "attitude_noise_rad": cfg.attitude_noise_rad,
+        "rate_noise_radps": cfg.rate_noise_radps,
+    });
+    if let Some(o) = v.as_object_mut() {
+        if let Some(s) = cfg.master_clock_offset_s {
+            o.insert("master_clock_offset_s".into(), json!(s));
+        }
+        if let Some(m) = cfg.mounting_estimate_rad {
+            o.insert("mounting_estimate_rad".into(), json!(m));
+        }
+    }
+    v
 }
 
 /// What the search decided about candidate `t` of `round` and why, in one sentence:
@@ -874,4 +891,26 @@ pub fn write_plots(dir: &Path, d: &Diagnosis, rec: &Recording) -> std::io::Resul
         .write(&dir.join("effects.svg"))?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::recommended_config;
+    use crate::calib::config::CalibConfig;
+
+    #[test]
+    fn the_recommended_keys_carry_the_clock_shift_and_the_mounting_when_used() {
+        let mut cfg = CalibConfig::default();
+        let none = recommended_config(&cfg);
+        assert!(none.get("master_clock_offset_s").is_none());
+        assert!(none.get("mounting_estimate_rad").is_none());
+        cfg.master_clock_offset_s = Some(-0.4);
+        cfg.mounting_estimate_rad = Some([0.0, 0.0, std::f64::consts::FRAC_PI_2]);
+        let used = recommended_config(&cfg);
+        assert_eq!(used["master_clock_offset_s"], -0.4);
+        assert_eq!(
+            used["mounting_estimate_rad"][2],
+            std::f64::consts::FRAC_PI_2
+        );
+    }
 }
