@@ -1133,6 +1133,19 @@ mod tests {
 
     /// A symmetric positive definite 9 × 9 covariance with unequal scales and every
     /// element non-zero: `A Aᵀ + diag`, `A` filled from a fixed sequence.
+    /// A 9-state filter from `p0_nine` after one scalar update (measurement row `h`,
+    /// value 1, variance 0.5): its factors are no longer diagonal, and its state not zero.
+    fn nine_after_one_update(h: [f64; 9]) -> Kalman<f64, 9> {
+        let mut kf = Kalman::<f64, 9>::new(&p0_nine(), 1e-12);
+        kf.update_scalar(
+            &nalgebra::SVector::<f64, 9>::from_column_slice(&h),
+            1.0,
+            0.5,
+            1e6,
+        );
+        kf
+    }
+
     fn p0_nine() -> nalgebra::SMatrix<f64, 9, 9> {
         let a = nalgebra::SMatrix::<f64, 9, 9>::from_fn(|i, j| {
             (((i * 7 + j * 3) % 11) as f64 - 5.0) * 0.1 * (1.0 + i as f64)
@@ -1168,16 +1181,7 @@ mod tests {
     fn predict_with_six_rows_sharing_their_columns_equals_dense_propagation() {
         // Rows 0–5 share their columns (propagated together), row 6 (state 8) has its own;
         // a Q pair between an active and a static state.
-        let p0 = p0_nine();
-        let mut kf = Kalman::<f64, 9>::new(&p0, 1e-12);
-        kf.update_scalar(
-            &nalgebra::SVector::<f64, 9>::from_column_slice(&[
-                1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0,
-            ]),
-            1.0,
-            0.5,
-            1e6,
-        );
+        let mut kf = nine_after_one_update([1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
         let (x, p) = (kf.state(), kf.covariance());
         let mut phi = Transition::<f64, 9, 7>::new([0, 1, 2, 3, 4, 5, 8]);
         for r in 0..6 {
@@ -1250,16 +1254,7 @@ mod tests {
     fn predict_with_static_states_at_the_end_equals_dense_propagation() {
         // States 5–8 are static (identity rows, no noise) and read by the active rows 0
         // and 2: their columns of U are moved into place, not orthogonalized.
-        let p0 = p0_nine();
-        let mut kf = Kalman::<f64, 9>::new(&p0, 1e-12);
-        kf.update_scalar(
-            &nalgebra::SVector::<f64, 9>::from_column_slice(&[
-                1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.3, 1.0, 0.0,
-            ]),
-            1.0,
-            0.5,
-            1e6,
-        );
+        let mut kf = nine_after_one_update([1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.3, 1.0, 0.0]);
         let (x, p) = (kf.state(), kf.covariance());
         let mut phi = Transition::<f64, 9, 2>::new([0, 2]);
         phi.set_row(0, &[1.0, 0.1, 0.0, 0.0, 0.0, 0.2, 0.0, 0.05, 0.0]);
