@@ -182,7 +182,9 @@ pub fn learn_and_say(
 /// recording (`crate::learn`). The model switches are applied first (the effects they add
 /// are learned jointly), angular-rate matching is dropped when the master gives no rate,
 /// and the flexure is identified when a declared configuration asks; says on stderr what
-/// it chose.
+/// it chose. Before learning, the steps before the filter run (`calib::prefilter`), and
+/// a master delay they find within the engine's reach is compensated while the model is
+/// learned (`Prepared::learned_with_delay_s`), unless the start declares a delay.
 pub fn prepare_config(
     rec: &crate::recording::Recording,
     rec_dir: &Path,
