@@ -800,13 +800,25 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         let at = |v: &[T], i: usize| v.get(i).copied().unwrap_or_else(T::zero);
         let qs = |i: usize, j: usize, v: T| v * at(inv, i) * at(inv, j);
         let (q_diag, q_pairs) = (&q.diag, &q.pairs);
+        // Q_s = S⁻¹ Q S⁻¹ on the upper triangle, factored; the sum of what went in says
+        // whether it is finite before anything changes.
         let mut check = T::zero();
-        for (i, &qd) in q_diag.iter().enumerate() {
-            check += qs(i, i, qd);
-        }
-        for &(i, j, v) in q_pairs.iter() {
-            check += qs(i, j, v);
-        }
+        let mut q = NoisePart::<T, N>::new(|w| {
+            for (i, (row, &qd)) in w.iter_mut().zip(q_diag.iter()).enumerate() {
+                let v = qs(i, i, qd);
+                check += v;
+                if let Some(e) = row.get_mut(i) {
+                    *e = v;
+                }
+            }
+            for &(i, j, v) in q_pairs.iter() {
+                let v = qs(i, j, v);
+                check += v;
+                if let Some(e) = w.get_mut(i.min(j)).and_then(|row| row.get_mut(i.max(j))) {
+                    *e += v;
+                }
+            }
+        });
         if !check.is_finite() {
             self.health.non_finite += 1;
             return;
@@ -815,21 +827,6 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             self.health.non_finite += 1;
             return;
         };
-        // Q_s = S⁻¹ Q S⁻¹ on the upper triangle, factored.
-        let inv = self.inv_scale.as_slice();
-        let qs = |i: usize, j: usize, v: T| v * at(inv, i) * at(inv, j);
-        let mut q = NoisePart::<T, N>::new(|w| {
-            for (i, (row, &qd)) in w.iter_mut().zip(q_diag.iter()).enumerate() {
-                if let Some(e) = row.get_mut(i) {
-                    *e = qs(i, i, qd);
-                }
-            }
-            for &(i, j, v) in q_pairs.iter() {
-                if let Some(e) = w.get_mut(i.min(j)).and_then(|row| row.get_mut(i.max(j))) {
-                    *e += qs(i, j, v);
-                }
-            }
-        });
         // The static states at the end (see [`orthogonalize`]).
         let mut t0 = N;
         while let Some(j) = t0.checked_sub(1) {
@@ -1092,14 +1089,9 @@ mod tests {
             pairs: [(2, 3, 0.005), (1, 3, 0.002)],
         };
         kf.predict(&phi, &q);
-        let dense = nalgebra::Matrix4::from_fn(|i, j| phi.get(i, j));
-        let mut qd = nalgebra::Matrix4::from_diagonal(&nalgebra::Vector4::from(q.diag));
-        for (i, j, v) in q.pairs {
-            qd[(i, j)] = v;
-            qd[(j, i)] = v;
-        }
-        assert!((kf.state() - dense * x).norm() < 1e-12);
-        assert!((kf.covariance() - (dense * p * dense.transpose() + qd)).norm() < 1e-12);
+        let (x1, p1) = dense_propagation(&phi, &q, &x, &p);
+        assert!((kf.state() - x1).norm() < 1e-12);
+        assert!((kf.covariance() - p1).norm() < 1e-12);
         let ps = kf.scaled_covariance();
         assert_eq!(ps, ps.transpose());
     }
@@ -1144,6 +1136,23 @@ mod tests {
             1e6,
         );
         kf
+    }
+
+    /// The reference a sparse predict is checked against: `Φ x` and `Φ P Φᵀ + Q` with
+    /// Φ and Q formed densely.
+    fn dense_propagation<const N: usize, const R: usize, const K: usize>(
+        phi: &Transition<f64, N, R>,
+        q: &Noise<f64, N, K>,
+        x: &SVector<f64, N>,
+        p: &SMatrix<f64, N, N>,
+    ) -> (SVector<f64, N>, SMatrix<f64, N, N>) {
+        let dense = SMatrix::<f64, N, N>::from_fn(|i, j| phi.get(i, j));
+        let mut qd = SMatrix::<f64, N, N>::from_diagonal(&SVector::from(q.diag));
+        for (i, j, v) in q.pairs {
+            qd[(i, j)] = v;
+            qd[(j, i)] = v;
+        }
+        (dense * x, dense * p * dense.transpose() + qd)
     }
 
     fn p0_nine() -> nalgebra::SMatrix<f64, 9, 9> {
@@ -1203,14 +1212,7 @@ mod tests {
             pairs: [(8, 6, 0.004)],
         };
         kf.predict(&phi, &q);
-        let dense = nalgebra::SMatrix::<f64, 9, 9>::from_fn(|i, j| phi.get(i, j));
-        let mut qd =
-            nalgebra::SMatrix::<f64, 9, 9>::from_diagonal(&nalgebra::SVector::from(q.diag));
-        for (i, j, v) in q.pairs {
-            qd[(i, j)] = v;
-            qd[(j, i)] = v;
-        }
-        let (x1, p1) = (dense * x, dense * p * dense.transpose() + qd);
+        let (x1, p1) = dense_propagation(&phi, &q, &x, &p);
         assert!((kf.state() - x1).norm() < 1e-12 * x1.norm());
         assert!((kf.covariance() - p1).norm() < 1e-12 * p1.norm());
         let ps = kf.scaled_covariance();
@@ -1264,14 +1266,7 @@ mod tests {
             pairs: [(1, 3, 0.002)],
         };
         kf.predict(&phi, &q);
-        let dense = nalgebra::SMatrix::<f64, 9, 9>::from_fn(|i, j| phi.get(i, j));
-        let mut qd =
-            nalgebra::SMatrix::<f64, 9, 9>::from_diagonal(&nalgebra::SVector::from(q.diag));
-        for (i, j, v) in q.pairs {
-            qd[(i, j)] = v;
-            qd[(j, i)] = v;
-        }
-        let (x1, p1) = (dense * x, dense * p * dense.transpose() + qd);
+        let (x1, p1) = dense_propagation(&phi, &q, &x, &p);
         assert!((kf.state() - x1).norm() < 1e-12 * x1.norm());
         assert!((kf.covariance() - p1).norm() < 1e-12 * p1.norm());
     }
