@@ -29,12 +29,8 @@ pub struct BlindRun {
     pub learned: RunResult,
     /// With the built-in default.
     pub default: RunResult,
-    /// Per channel axis (`channel/axis`): whether its NIS mean is inside its 95% band,
-    /// with the learned model and with the default.
-    pub nis_in_band: Vec<(String, bool, bool)>,
-    /// Per channel axis: the NIS mean with the learned model and with the default, and
-    /// the band (kept so a run outside its band shows by how much).
-    pub nis_values: Vec<(String, f64, f64, [f64; 2])>,
+    /// Per channel axis: the NIS mean with the learned model and with the default.
+    pub nis: Vec<ChannelNis>,
     /// What the master's errors were drawn as: `none`, `white` or `smooth`.
     pub master_kind: &'static str,
     /// The learned quantities against the draw.
@@ -43,6 +39,22 @@ pub struct BlindRun {
     pub adopted: bool,
     /// Wall time of the learning (s).
     pub learn_seconds: f64,
+}
+
+/// One channel axis's mean NIS in a blind run, each with its 95 % band (kept as values,
+/// so that a run outside its band shows by how much).
+#[derive(Clone, Debug)]
+pub struct ChannelNis {
+    /// `channel/axis`.
+    pub name: String,
+    /// With the learned model: mean NIS and band.
+    pub learned: (f64, [f64; 2]),
+    /// With the built-in default (none when its run has no such axis).
+    pub default: Option<(f64, [f64; 2])>,
+}
+
+fn inside((m, b): (f64, [f64; 2])) -> bool {
+    m >= b[0] && m <= b[1]
 }
 
 /// Runs one blind seed.
@@ -64,21 +76,17 @@ pub fn blind_run(a: &Args, seed: u64) -> Result<BlindRun, String> {
     a.model.apply(&mut built_in)?;
     let (default, default_res) = score_run(&rec, &built_in, seed, a.precision)?;
     let with_default = channel_residuals(&default_res.innovations);
-    let inside = |m: f64, b: [f64; 2]| m >= b[0] && m <= b[1];
-    let (mut nis_in_band, mut nis_values) = (Vec::new(), Vec::new());
-    for c in channel_residuals(&learned_res.innovations) {
-        let d = with_default
-            .iter()
-            .find(|d| d.channel == c.channel && d.axis == c.axis);
-        let name = format!("{}/{}", c.channel, c.axis);
-        nis_in_band.push((
-            name.clone(),
-            inside(c.nis_mean, c.nis_band),
-            d.is_some_and(|d| inside(d.nis_mean, d.nis_band)),
-        ));
-        let d_nis = d.map_or(f64::NAN, |d| d.nis_mean);
-        nis_values.push((name, c.nis_mean, d_nis, c.nis_band));
-    }
+    let nis = channel_residuals(&learned_res.innovations)
+        .into_iter()
+        .map(|c| ChannelNis {
+            name: format!("{}/{}", c.channel, c.axis),
+            learned: (c.nis_mean, c.nis_band),
+            default: with_default
+                .iter()
+                .find(|d| d.channel == c.channel && d.axis == c.axis)
+                .map(|d| (d.nis_mean, d.nis_band)),
+        })
+        .collect();
     let master_kind = match (&sc.master.smooth_error, sc.master.velocity_noise_mps > 0.0) {
         (Some(_), _) => "smooth",
         (None, true) => "white",
@@ -88,8 +96,7 @@ pub fn blind_run(a: &Args, seed: u64) -> Result<BlindRun, String> {
         seed,
         learned,
         default,
-        nis_in_band,
-        nis_values,
+        nis,
         master_kind,
         params: param_errors(&ModelParams::from_config(&l.learned_config), &l.values, &sc),
         adopted: l.adopted,
@@ -100,25 +107,23 @@ pub fn blind_run(a: &Args, seed: u64) -> Result<BlindRun, String> {
 /// Per channel axis: the fraction of runs whose NIS is in its band (learned, default).
 pub fn nis_fractions(runs: &[BlindRun]) -> Vec<(String, f64, f64)> {
     let mut names: Vec<String> = Vec::new();
-    for r in runs {
-        for (n, _, _) in &r.nis_in_band {
-            if !names.contains(n) {
-                names.push(n.clone());
-            }
+    for c in runs.iter().flat_map(|r| &r.nis) {
+        if !names.contains(&c.name) {
+            names.push(c.name.clone());
         }
     }
     names
         .into_iter()
         .map(|n| {
-            let of = |pick: fn(&(String, bool, bool)) -> bool| {
+            let of = |in_band: fn(&ChannelNis) -> bool| {
                 let v: Vec<bool> = runs
                     .iter()
-                    .filter_map(|r| r.nis_in_band.iter().find(|c| c.0 == n).map(pick))
+                    .filter_map(|r| r.nis.iter().find(|c| c.name == n).map(in_band))
                     .collect();
                 v.iter().filter(|b| **b).count() as f64 / v.len().max(1) as f64
             };
-            let learned = of(|c| c.1);
-            let default = of(|c| c.2);
+            let learned = of(|c| inside(c.learned));
+            let default = of(|c| c.default.is_some_and(inside));
             (n, learned, default)
         })
         .collect()
@@ -188,7 +193,7 @@ pub fn run(a: &Args) -> Result<(), String> {
         "parameters": medians,
         "per_run": runs.iter().map(|r| json!({
             "seed": r.seed, "adopted": r.adopted, "master": r.master_kind,
-            "nis": r.nis_values.iter().map(|(c, l, d, b)| json!({"channel": c, "learned": l, "default": d, "band": b})).collect::<Vec<_>>(),
+            "nis": r.nis.iter().map(|c| json!({"channel": c.name, "learned": c.learned.0, "default": c.default.map(|d| d.0), "band": c.learned.1})).collect::<Vec<_>>(),
             "learned": {"nees": r.learned.nees, "nis_mean": r.learned.nis, "error": r.learned.error, "sigma": r.learned.sigma},
             "default": {"nees": r.default.nees, "nis_mean": r.default.nis, "error": r.default.error, "sigma": r.default.sigma},
             "parameters": r.params,
