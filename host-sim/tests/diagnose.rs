@@ -7,7 +7,9 @@
 //! Wald and likelihood-ratio tests, the held-out and structure checks), which needs the
 //! declared noise and flexure right so that what is left is the effect; each test's name
 //! says `given_the_declared_model`. That the model itself can be learned from data that
-//! declares nothing is tested on blind draws (`learn_blind.rs`, `docs/model-learning.md`).
+//! declares nothing is tested on blind draws (`learn_blind.rs`, `docs/model-learning.md`),
+//! and so is the whole path of a diagnosis with nothing declared, on a blind recording
+//! carrying a master delay (the last test here).
 
 use flexcal_core::augment::Effect;
 use flexcal_sim::calib::config::CalibConfig;
@@ -198,10 +200,9 @@ fn a_master_delay_is_found_on_a_blind_recording_with_the_model_learned_from_it()
     let tau = sc.undeclared.master_delay_s;
     let rec = simulate(&sc, seed).recording;
     // No configuration: an empty folder holds no calibrate.toml beside the recording.
-    let dir = std::env::temp_dir().join(format!("flexcal-blind-delay-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    let prepared = prepare_config(&rec, &dir, None, &ModelArgs::default()).expect("prepare");
-    let _ = std::fs::remove_dir(&dir);
+    let empty = tempfile::tempdir().expect("temp dir");
+    let prepared =
+        prepare_config(&rec, empty.path(), None, &ModelArgs::default()).expect("prepare");
     let (cfg, delay_start_s) = searched_model(&prepared);
     let learned_with = prepared
         .learned_with_delay_s
