@@ -3,6 +3,7 @@
 //! Units are in the key names; every key has a default (the `moored` scenario's
 //! declared model), so a file only says what differs.
 
+use crate::learn::params::Param;
 use crate::sim::{self, FlexureSpec, Scenario};
 use flexcal_core::augment::{AugmentError, Augmentation, Effect, MAX_EFFECTS};
 use flexcal_core::engine::{EngineConfig, InitialSigma, Matching, MeasurementNoise};
@@ -205,7 +206,11 @@ impl CalibConfig {
     /// The model a scenario declares, at filter period `t` (s): its noise levels, its
     /// bending model and its flexure as an AR(2) at `t` (a Gauss-Markov truth is
     /// converted with the same poles and variance). Sensor errors the model has no
-    /// states for (scale factors, non-orthogonality) are *not* declared.
+    /// states for (scale factors, non-orthogonality) are *not* declared. A master
+    /// noise below the model learner's floor (a noiseless or smooth master) is
+    /// declared at that floor (`learn::params::Param::bounds`): the filter cannot run
+    /// with zero measurement noise, and the floor stands for what the slave's own
+    /// unmodelled errors add to every match.
     pub fn declared_for(sc: &Scenario, t: f64) -> Self {
         let arw = sc.slave_imu.gyro_arw_deg_rh.to_radians() / 60.0;
         let gauss_markov = |sigma_arcmin: f64, omega_rad_s: f64, damping: f64| {
@@ -284,9 +289,13 @@ impl CalibConfig {
             accel_vrw_mps_rs: sc.slave_imu.accel_vrw_mps_rh / 60.0,
             gyro_bias_rw: 0.0,
             accel_bias_rw: 0.0,
-            velocity_noise_mps: [sc.master.velocity_noise_mps; 3],
-            attitude_noise_rad: [sc.master.attitude_noise_deg.to_radians(); 3],
-            rate_noise_radps: [rate_noise; 3],
+            velocity_noise_mps: [at_floor(Param::VelocityNoise(0), sc.master.velocity_noise_mps);
+                3],
+            attitude_noise_rad: [at_floor(
+                Param::AttitudeNoise(0),
+                sc.master.attitude_noise_deg.to_radians(),
+            ); 3],
+            rate_noise_radps: [at_floor(Param::RateNoise(0), rate_noise); 3],
             effects,
             master_attitude_error_rad: smooth_att,
             master_velocity_error_mps: smooth_vel,
@@ -534,6 +543,11 @@ impl CalibConfig {
     }
 }
 
+/// A declared measurement noise no smaller than the learner's floor for `p`.
+fn at_floor(p: Param, declared: f64) -> f64 {
+    declared.max(p.bounds().0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -577,5 +591,28 @@ mod tests {
             zero.contains("`rate_noise_radps`") && zero.contains("axis 1"),
             "{zero}"
         );
+    }
+
+    #[test]
+    fn a_noiseless_master_is_declared_at_the_learner_floor_and_loads() {
+        // Blind draws until one has a master with no white noise (none or smooth).
+        let sc = (1..)
+            .map(|seed| crate::sim::blind::draw(seed, 60.0, None))
+            .find(|sc| sc.master.velocity_noise_mps == 0.0 && sc.master.attitude_noise_deg == 0.0)
+            .unwrap();
+        let declared = CalibConfig::declared_for(&sc, 1.0 / sc.master.rate_hz);
+        let back = parse(&toml::to_string(&declared).unwrap()).unwrap();
+        assert_eq!(
+            back.velocity_noise_mps,
+            [Param::VelocityNoise(0).bounds().0; 3]
+        );
+        assert_eq!(
+            back.attitude_noise_rad,
+            [Param::AttitudeNoise(0).bounds().0; 3]
+        );
+        assert!(back
+            .rate_noise_radps
+            .iter()
+            .all(|r| *r >= Param::RateNoise(0).bounds().0));
     }
 }
