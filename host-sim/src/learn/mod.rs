@@ -179,6 +179,21 @@ pub fn learn(
     let per_window = 1.0 / span.sqrt();
     for sweep in 0..opts.sweeps.max(1) {
         let h = std::f64::consts::LN_2 / (1u32 << sweep.min(8)) as f64;
+        if sweep > 0 {
+            // The angle random walk, cross-checked: the increments' white floor bounds it
+            // from above (vibration and the flexure's rate add to that band without
+            // accumulating into attitude), so the likelihood may only lower it, and only
+            // where it resolves it. First in the second sweep: the flexure is known by
+            // then, and every quantity after it (the channel noise, the master's errors)
+            // is sized against it. On the measured vehicle recording the floor (0.98 °/√h)
+            // held the attitude NIS at 0.10–0.28 (`docs/model-learning.md`, session 7).
+            let arw_start = s.model.get(Param::GyroArw);
+            s.line(&[Param::GyroArw], h);
+            if let Some(floor) = inc.as_ref().map(IncrementNoise::gyro_arw) {
+                s.at_most(Param::GyroArw, floor);
+            }
+            s.keep_only_if_resolved(Param::GyroArw, arw_start, IDENTIFIABLE_RELATIVE_SIGMA);
+        }
         s.match_noise(&win, NOISE_ITERATIONS);
         // What of the rate matching's noise the lever arm carries into the velocity
         // (the master's own rate noise), from the ladder that includes none: on a

@@ -407,7 +407,22 @@ impl<'a> Search<'a> {
             .find(|v| v.param == p)
             .and_then(|v| v.sigma)
             .is_some_and(|sigma| sigma <= max_relative_sigma * now);
-        if resolved || now == value {
+        if !resolved {
+            self.set_back(p, value);
+        }
+    }
+
+    /// Moves `p` back to `bound` if the search took it above: a bound that other
+    /// evidence sets (the gyro increments' white floor above the angle random walk).
+    pub fn at_most(&mut self, p: Param, bound: f64) {
+        if self.model.get(p) > bound {
+            self.set_back(p, bound);
+        }
+    }
+
+    /// Sets `p` to `value` (its likelihood evaluated), unless it is there already.
+    fn set_back(&mut self, p: Param, value: f64) {
+        if self.model.get(p) == value {
             return;
         }
         let model = self.trial(&[p], |_, _| value);
