@@ -401,7 +401,8 @@ impl<T: Real, const N: usize> NoisePart<T, N> {
                     *d = wm;
                 }
                 let t = q.n;
-                for row in q.w.iter_mut() {
+                // Rows after m are zero at m and at t ≤ m (U_Q is upper triangular).
+                for row in q.w.iter_mut().take(m + 1) {
                     if let Some(v) = row.get(m).copied() {
                         if let Some(e) = row.get_mut(t) {
                             *e = v;
@@ -538,8 +539,9 @@ fn orthogonalize_n<T: Real>(w: Gram<'_, T>, scratch: [&mut [T]; 4], floor: T, t0
     let mut clamped = 0;
     let t0 = t0.min(n);
     for j in (t0..n).rev() {
-        for (i, c) in col.iter_mut().enumerate().take(j) {
-            *c = u.get(i * n + j).copied().unwrap_or_else(T::zero);
+        let column = u.iter().skip(j).step_by(n.max(1)).take(j);
+        for (c, &p) in col.iter_mut().zip(column) {
+            *c = p;
         }
         if let (Some(dst), Some(src)) = (u.get_mut(j * n..j * n + j), col.get(..j)) {
             dst.copy_from_slice(src);
