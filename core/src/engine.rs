@@ -351,6 +351,34 @@ pub const MAX_DELAY_S: f64 = 0.25;
 /// third of the desk's run time in `memcpy`, and a stack frame on the board).
 pub type StepReports<T> = Vec<MatchReport<T>, PENDING_DEPTH>;
 
+/// Which states are static under `cfg` (the filter holds them last, where its time update
+/// leaves them without arithmetic: see [`Kalman`]): the misalignment and the biases without
+/// a random walk, and every augmented state but the Gauss-Markov ones (the constant effects,
+/// the inert states). The others have dynamics in Φ or process noise (`model::transition`,
+/// `model::process_noise`). Only the cost depends on this: the time update finds for itself
+/// which states are static at each step.
+fn static_states<T: Real>(cfg: &EngineConfig<T>) -> impl Fn(usize) -> bool {
+    let noise = &cfg.process_noise;
+    let mut mask = !0u64 << N;
+    for (b, rw) in [
+        (MU, noise.misalignment_rw),
+        (BG, noise.gyro_bias_rw),
+        (BA, noise.accel_bias_rw),
+    ] {
+        if rw == T::zero() {
+            mask |= 0b111 << b;
+        }
+    }
+    for b in cfg.augmentation.blocks() {
+        if b.effect.is_gauss_markov() {
+            for i in b.offset..b.offset + b.effect.states() {
+                mask &= !1u64.checked_shl(i as u32).unwrap_or(0);
+            }
+        }
+    }
+    move |i| mask >> i.min(63) & 1 == 1
+}
+
 impl<T: Real, const S: usize> Engine<T, S> {
     /// A new engine; it initializes the slave solution from the first master message.
     pub fn new(cfg: EngineConfig<T>) -> Result<Self, EngineError> {
@@ -406,7 +434,9 @@ impl<T: Real, const S: usize> Engine<T, S> {
             return Err(EngineError::TooManyStates);
         }
         self.kf
-            .restart_factored(cfg.variance_floor, |u, d| Self::initial_factor(&cfg, u, d));
+            .restart_factored(cfg.variance_floor, static_states(&cfg), |u, d| {
+                Self::initial_factor(&cfg, u, d)
+            });
         self.kf.health = Health::default();
         self.strapdown = None;
         self.buffer.clear();
@@ -1263,7 +1293,9 @@ impl<T: Real, const S: usize> Engine<T, S> {
     fn reset(&mut self) {
         let cfg = self.cfg;
         self.kf
-            .restart_factored(cfg.variance_floor, |u, d| Self::initial_factor(&cfg, u, d));
+            .restart_factored(cfg.variance_floor, static_states(&cfg), |u, d| {
+                Self::initial_factor(&cfg, u, d)
+            });
         self.strapdown = None;
         self.buffer.clear();
         self.epoch = None;

@@ -165,8 +165,19 @@ pub struct Noise<T, const N: usize, const P: usize> {
 /// conditional variance in `D`, where a plain `P` in `f32` (ε 6·10⁻⁸) loses it in the
 /// rounding of `P_ψψ ≈ P_μμ`: `P` built from the factors is positive semi-definite by
 /// construction, whatever the precision.
+///
+/// The filter holds its states in an internal order, the *static* states (an identity
+/// transition and no process noise: the misalignment, biases without a random walk, the
+/// constant effects) last, where the time update leaves their factors without arithmetic
+/// (see [`orthogonalize`]); every index of its interface is the caller's
+/// ([`Kalman::restart_factored`] takes which states are static).
 #[derive(Clone, Debug)]
 pub struct Kalman<T: Real, const N: usize> {
+    /// Internal position of each state (the caller's index).
+    pos: [u8; N],
+    /// The state at each internal position: `pos`'s inverse.
+    state_at: [u8; N],
+    /// The scaled state; this and every field below in the internal order.
     xs: SVector<T, N>,
     /// `U(i, j)`, `i < j`, at `i + j N` (column-major, strictly above the diagonal; the
     /// unit diagonal and the lower triangle are never read).
@@ -229,42 +240,41 @@ fn dot<T: Real>(a: &[T], b: &[T]) -> T {
     s0 + s1
 }
 
-/// `op(&mut dst[m], src[m N])` for every `m` of `dst` (`src` holds at least
-/// `(dst.len() − 1) N + 1` elements; beyond what it holds, `dst` is left). Four at a time,
+/// `op(&mut dst[m], src[m n])` for every `m` of `dst` (`src` holds at least
+/// `(dst.len() − 1) n + 1` elements; beyond what it holds, `dst` is left). Four at a time,
 /// each group's reach checked once, so the loop is loads and the operation (the plain loop
 /// checked every index and cost twice the contiguous one).
 #[inline(always)]
-fn each_strided<T: Real, const N: usize>(dst: &mut [T], src: &[T], mut op: impl FnMut(&mut T, T)) {
+fn each_strided<T: Real>(dst: &mut [T], src: &[T], n: usize, mut op: impl FnMut(&mut T, T)) {
     let mut s = src;
     let mut d4 = dst.chunks_exact_mut(4);
     for d in &mut d4 {
-        let w = s.get(..=3 * N).unwrap_or(&[]);
+        let w = s.get(..=3 * n).unwrap_or(&[]);
         if let ([d0, d1, d2, d3], Some(&p0), Some(&p1), Some(&p2), Some(&p3)) =
-            (d, w.first(), w.get(N), w.get(2 * N), w.get(3 * N))
+            (d, w.first(), w.get(n), w.get(2 * n), w.get(3 * n))
         {
             op(d0, p0);
             op(d1, p1);
             op(d2, p2);
             op(d3, p3);
         }
-        s = s.get(4 * N..).unwrap_or(&[]);
+        s = s.get(4 * n..).unwrap_or(&[]);
     }
     for d in d4.into_remainder() {
         if let Some(&p) = s.first() {
             op(d, p);
         }
-        s = s.get(N..).unwrap_or(&[]);
+        s = s.get(n..).unwrap_or(&[]);
     }
 }
 
-/// `dst[m − k] ⊕= a U(k, m)` for `m ≥ k` (`dst` starts at column `k`; `U(k, k) = 1`), from
-/// `u` (column-major, N × N): row `k` of U is one element per column, N apart. With `op`
-/// the accumulation (`+=` of `a ·`) or the copy (`a` then 1).
+/// `dst[m − k] += a U(k, m)` for `m ≥ k` (`dst` starts at column `k`; `U(k, k) = 1`), from
+/// `u` (column-major, `n × n`): row `k` of U is one element per column, `n` apart.
 #[inline(always)]
-fn add_urow<T: Real, const N: usize>(dst: &mut [T], a: T, u: &[T], k: usize) {
+fn add_urow<T: Real>(dst: &mut [T], a: T, u: &[T], k: usize, n: usize) {
     if let Some((first, rest)) = dst.split_first_mut() {
         *first += a;
-        each_strided::<T, N>(rest, u.get((k + 1) * N + k..).unwrap_or(&[]), |e, p| {
+        each_strided(rest, u.get((k + 1) * n + k..).unwrap_or(&[]), n, |e, p| {
             *e += a * p
         });
     }
@@ -391,7 +401,8 @@ impl<T: Real, const N: usize> NoisePart<T, N> {
                     *d = wm;
                 }
                 let t = q.n;
-                for row in q.w.iter_mut() {
+                // Rows after m are zero at m and at t ≤ m (U_Q is upper triangular).
+                for row in q.w.iter_mut().take(m + 1) {
                     if let Some(v) = row.get(m).copied() {
                         if let Some(e) = row.get_mut(t) {
                             *e = v;
@@ -445,6 +456,18 @@ fn rows_of_u<T: Real, const N: usize>(u: &mut [T]) {
     }
 }
 
+/// [`rows_of_u`] undone: U's rows (row-major, upper triangle) back into its columns.
+fn rows_to_cols<T: Real, const N: usize>(u: &mut [T]) {
+    for i in 0..N {
+        for k in i + 1..N {
+            let v = u.get(i * N + k).copied().unwrap_or_else(T::zero);
+            if let Some(e) = u.get_mut(k * N + i) {
+                *e = v;
+            }
+        }
+    }
+}
+
 /// The modified weighted Gram-Schmidt orthogonalization (Thornton) of
 /// `W = [W_1 | W_Q]` with weights `diag(D, D_Q)`: the rows of `W_1` in `u` (row-major,
 /// row `i` zero before column `lo[i]`), `D` in `d`, `W_Q` in `q`. The rows from the last
@@ -458,6 +481,7 @@ fn rows_of_u<T: Real, const N: usize>(u: &mut [T]) {
 /// earlier row's entry in their column as is (the row of U after the orthogonalization
 /// against them is the unit row, so `a_ij = w_ij`): those columns of `U` are W's,
 /// moved into place, with no arithmetic (the 33-state layout's calibration constants).
+#[inline(always)]
 fn orthogonalize<T: Real, const N: usize>(
     u: &mut [T],
     lo: &mut [u8; N],
@@ -466,49 +490,92 @@ fn orthogonalize<T: Real, const N: usize>(
     floor: T,
     t0: usize,
 ) -> u32 {
-    let mut dw = [T::zero(); N];
-    dw.copy_from_slice(d.get(..N).unwrap_or(&[]));
+    let mut scratch = [[T::zero(); N]; 4];
+    let [dw, cu, cq, col] = &mut scratch;
+    let w = Gram {
+        u,
+        lo,
+        qw: q.w.as_flattened_mut(),
+        dq: &q.dq,
+        first: &q.first,
+        nq: q.n,
+        d,
+    };
+    orthogonalize_n(w, [dw, cu, cq, col], floor, t0)
+}
+
+/// What [`orthogonalize_n`] works on: `n` = `lo.len()` states.
+struct Gram<'a, T> {
+    /// W_1's rows, row-major `n × n`.
+    u: &'a mut [T],
+    /// Where each row of W_1 starts being non-zero.
+    lo: &'a mut [u8],
+    /// W_Q's rows, row-major `n × n`, the first `nq` columns used.
+    qw: &'a mut [T],
+    dq: &'a [T],
+    first: &'a [u8],
+    nq: usize,
+    d: &'a mut [T],
+}
+
+/// [`orthogonalize`] for any `n` (the board's two layouts share one copy), its four
+/// `n`-element temporaries lent by the caller.
+#[inline(never)]
+fn orthogonalize_n<T: Real>(w: Gram<'_, T>, scratch: [&mut [T]; 4], floor: T, t0: usize) -> u32 {
+    let Gram {
+        u,
+        lo,
+        qw,
+        dq,
+        first,
+        nq,
+        d,
+    } = w;
+    let [dw, cu, cq, col] = scratch;
+    let n = lo.len();
+    for (e, &v) in dw.iter_mut().zip(d.iter()) {
+        *e = v;
+    }
     let mut clamped = 0;
-    let nq = q.n;
-    let t0 = t0.min(N);
-    for j in (t0..N).rev() {
-        let mut col = [T::zero(); N];
-        for (i, c) in col.iter_mut().enumerate().take(j) {
-            *c = u.get(i * N + j).copied().unwrap_or_else(T::zero);
+    let t0 = t0.min(n);
+    for j in (t0..n).rev() {
+        let column = u.iter().skip(j).step_by(n.max(1)).take(j);
+        for (c, &p) in col.iter_mut().zip(column) {
+            *c = p;
         }
-        if let (Some(dst), Some(src)) = (u.get_mut(j * N..j * N + j), col.get(..j)) {
+        if let (Some(dst), Some(src)) = (u.get_mut(j * n..j * n + j), col.get(..j)) {
             dst.copy_from_slice(src);
         }
     }
     for j in (0..t0).rev() {
-        let l = lo.get(j).map_or(N, |&v| usize::from(v));
-        let fq = q.first.get(j).map_or(nq, |&v| usize::from(v));
-        let (top, rest) = u.split_at_mut((j * N).min(u.len()));
-        let (qtop, qrest) = q.w.split_at_mut(j);
+        let l = lo.get(j).map_or(n, |&v| usize::from(v));
+        let fq = first.get(j).map_or(nq, |&v| usize::from(v));
+        let (top, rest) = u.split_at_mut((j * n).min(u.len()));
+        let (qtop, qrest) = qw.split_at_mut((j * n).min(qw.len()));
         let (wj, qj) = (
             rest.get(l..t0).unwrap_or(&[]),
-            qrest.first().and_then(|r| r.get(fq..nq)).unwrap_or(&[]),
+            qrest.get(fq..nq).unwrap_or(&[]),
         );
         // c = Dw w_j over the row's non-zeros.
-        let mut cu = [T::zero(); N];
-        let mut cq = [T::zero(); N];
         for ((c, &w), &dd) in cu.iter_mut().zip(wj.iter()).zip(dw.get(l..).unwrap_or(&[])) {
             *c = dd * w;
         }
-        for ((c, &w), &dd) in cq.iter_mut().zip(qj).zip(q.dq.get(fq..).unwrap_or(&[])) {
+        for ((c, &w), &dd) in cq.iter_mut().zip(qj).zip(dq.get(fq..).unwrap_or(&[])) {
             *c = dd * w;
         }
-        let dj = dot(wj, &cu) + dot(qj, &cq);
-        let mut col = [T::zero(); N];
+        let dj = dot(wj, cu) + dot(qj, cq);
+        col.fill(T::zero());
         if dj > T::zero() {
             let inv = T::one() / dj;
-            let rows = top.chunks_exact_mut(N).zip(qtop.iter_mut());
+            let rows = top
+                .chunks_exact_mut(n.max(1))
+                .zip(qtop.chunks_exact_mut(n.max(1)));
             for (((wi, qi), lo_i), uij) in rows.zip(lo.iter_mut()).zip(col.iter_mut()) {
                 let (wi, qi) = (
                     wi.get_mut(l..t0).unwrap_or(&mut []),
                     qi.get_mut(fq..nq).unwrap_or(&mut []),
                 );
-                let a = (dot(wi, &cu) + dot(qi, &cq)) * inv;
+                let a = (dot(wi, cu) + dot(qi, cq)) * inv;
                 *uij = a;
                 if a != T::zero() {
                     axpy(wi, -a, wj);
@@ -533,6 +600,69 @@ fn orthogonalize<T: Real, const N: usize>(
     clamped
 }
 
+/// Puts the factors into the order `state_at` (the state at each new position; `pos` its
+/// inverse, `n` of each) if `U` stays upper triangular in it (no `U(i, j) ≠ 0` with
+/// `pos i > pos j`): `u` (column-major `n × n`, entries above the diagonal) and each of
+/// `vectors` are then permuted as they are (the same `P`, no arithmetic) and it returns
+/// true; otherwise nothing changes. Not generic over `n`, so the board's two layouts share
+/// one copy.
+fn static_last<T: Real>(u: &mut [T], vectors: [&mut [T]; 3], pos: &[u8], state_at: &[u8]) -> bool {
+    let n = pos.len();
+    let at = |p: &[u8], i: usize| p.get(i).map_or(0, |&v| usize::from(v));
+    let get = |u: &[T], i: usize, j: usize| u.get(i + j * n).copied().unwrap_or_else(T::zero);
+    if n > 64 {
+        return false;
+    }
+    for j in 0..n {
+        for i in 0..j {
+            if get(u, i, j) != T::zero() && at(pos, i) > at(pos, j) {
+                return false;
+            }
+        }
+    }
+    // U(i, j) mirrored into the lower triangle (never read), then read back from there into
+    // its place (pos i, pos j); pairs that change sides are zero (checked above).
+    for j in 0..n {
+        for i in 0..j {
+            let v = get(u, i, j);
+            if let Some(e) = u.get_mut(j + i * n) {
+                *e = v;
+            }
+        }
+    }
+    for b in 0..n {
+        for a in 0..b {
+            let (i, k) = (at(state_at, a), at(state_at, b));
+            let v = if i < k { get(u, k, i) } else { T::zero() };
+            if let Some(e) = u.get_mut(a + b * n) {
+                *e = v;
+            }
+        }
+    }
+    // The vectors along the permutation's cycles: v[a] ← v[state_at a].
+    for v in vectors {
+        let mut done = 0u64;
+        for start in 0..n {
+            let mut a = start;
+            let first = v.get(start).copied().unwrap_or_else(T::zero);
+            while done >> a & 1 == 0 {
+                done |= 1 << a;
+                let src = at(state_at, a);
+                let x = if src == start {
+                    first
+                } else {
+                    v.get(src).copied().unwrap_or_else(T::zero)
+                };
+                if let Some(e) = v.get_mut(a) {
+                    *e = x;
+                }
+                a = src;
+            }
+        }
+    }
+    true
+}
+
 impl<T: Real, const N: usize> Kalman<T, N> {
     /// Creates the filter from the initial covariance `p0` (physical units, symmetric
     /// positive definite); the state scales are the square roots of its diagonal (a zero
@@ -549,6 +679,8 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     #[inline(always)]
     pub fn unstarted(variance_floor: T) -> Self {
         Self {
+            pos: core::array::from_fn(|i| i as u8),
+            state_at: core::array::from_fn(|i| i as u8),
             xs: SVector::zeros(),
             u: SMatrix::zeros(),
             d: SVector::zeros(),
@@ -564,7 +696,10 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// which is this filter's own storage (no `N × N` temporary), factored there. The
     /// health counters are kept. A covariance whose correlations `T` cannot carry is not
     /// positive definite once rounded: give its factors ([`Kalman::restart_factored`]).
+    /// The internal order is the caller's.
     pub fn restart(&mut self, variance_floor: T, fill_p0: impl FnOnce(&mut SMatrix<T, N, N>)) {
+        self.pos = core::array::from_fn(|i| i as u8);
+        self.state_at = self.pos;
         fill_p0(&mut self.u);
         self.set_scales(|u, _, i| mat::get(u, i, i));
         let (sc, u) = (self.scale, &mut self.u);
@@ -610,11 +745,20 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// triangular: only its entries above the diagonal are read) and `D` (not negative), so
     /// that `P₀ = U D Uᵀ`. Nothing of `P₀` is formed: its small conditional variances
     /// (ψ given the misalignment and the flexure, the master's attitude noise) stay exact.
+    ///
+    /// The states `is_static` names (an identity transition and no process noise at every
+    /// time update) are then held last (see [`Kalman`]), if the factors allow it: none of
+    /// them tied to a later state (`U(i, j) ≠ 0`, `i` static, `j` not), which would leave
+    /// `U` not triangular in that order. Otherwise the order stays the caller's. Either
+    /// way the filter is the same; the order only decides what a time update costs.
     pub fn restart_factored(
         &mut self,
         variance_floor: T,
+        is_static: impl Fn(usize) -> bool,
         fill: impl FnOnce(&mut SMatrix<T, N, N>, &mut SVector<T, N>),
     ) {
+        self.pos = core::array::from_fn(|i| i as u8);
+        self.state_at = self.pos;
         self.u.fill(T::zero());
         self.d.fill(T::zero());
         fill(&mut self.u, &mut self.d);
@@ -639,6 +783,40 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         }
         self.xs.fill(T::zero());
         self.floor = variance_floor;
+        self.order_static_last(is_static);
+    }
+
+    /// Moves the states `is_static` names behind the others (see [`static_last`]).
+    fn order_static_last(&mut self, is_static: impl Fn(usize) -> bool) {
+        let mut pos = [0u8; N];
+        let mut state_at = [0u8; N];
+        let mut n = 0;
+        for pass in [false, true] {
+            for (i, p) in pos.iter_mut().enumerate() {
+                if is_static(i) == pass {
+                    *p = n as u8;
+                    if let Some(e) = state_at.get_mut(n) {
+                        *e = i as u8;
+                    }
+                    n += 1;
+                }
+            }
+        }
+        let vectors = [
+            self.d.as_mut_slice(),
+            self.scale.as_mut_slice(),
+            self.inv_scale.as_mut_slice(),
+        ];
+        if static_last(self.u.as_mut_slice(), vectors, &pos, &state_at) {
+            self.pos = pos;
+            self.state_at = state_at;
+        }
+    }
+
+    /// Internal position of state `i` (`N` outside the filter).
+    #[inline(always)]
+    fn internal(&self, i: usize) -> usize {
+        self.pos.get(i).map_or(N, |&p| usize::from(p))
     }
 
     /// The scales `s_i = √P_ii` (1 where that is zero or not finite) and their reciprocals,
@@ -660,11 +838,15 @@ impl<T: Real, const N: usize> Kalman<T, N> {
 
     /// State estimate in physical units.
     pub fn state(&self) -> SVector<T, N> {
-        self.xs.component_mul(&self.scale)
+        SVector::from_fn(|i, _| {
+            let a = self.internal(i);
+            vget(&self.xs, a) * vget(&self.scale, a)
+        })
     }
 
-    /// Scaled covariance element `P_s(i, j) = Σ_{k ≥ max(i, j)} U(i, k) D_k U(j, k)` (O(N)).
-    fn scaled(&self, i: usize, j: usize) -> T {
+    /// Scaled covariance element `P_s(i, j) = Σ_{k ≥ max(i, j)} U(i, k) D_k U(j, k)` (O(N)),
+    /// `i` and `j` the internal positions.
+    fn scaled_at(&self, i: usize, j: usize) -> T {
         let (a, b) = (i.min(j), i.max(j));
         let (u, d) = (self.u.as_slice(), self.d.as_slice());
         let ue = |r: usize, c: usize| {
@@ -683,10 +865,16 @@ impl<T: Real, const N: usize> Kalman<T, N> {
 
     /// Covariance element (physical units).
     pub fn cov(&self, i: usize, j: usize) -> T {
-        match (self.scale.get(i), self.scale.get(j)) {
-            (Some(si), Some(sj)) => self.scaled(i, j) * *si * *sj,
+        let (a, b) = (self.internal(i), self.internal(j));
+        match (self.scale.get(a), self.scale.get(b)) {
+            (Some(sa), Some(sb)) => self.scaled_at(a, b) * *sa * *sb,
             _ => T::zero(),
         }
+    }
+
+    /// Scaled covariance element `P_s(i, j)`.
+    fn scaled(&self, i: usize, j: usize) -> T {
+        self.scaled_at(self.internal(i), self.internal(j))
     }
 
     /// Covariance in physical units (for reports and tests; O(N³)).
@@ -724,7 +912,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// back into the nominal solution (closed loop).
     pub fn reset_states(&mut self, indices: core::ops::Range<usize>) {
         for i in indices {
-            if let Some(x) = self.xs.get_mut(i) {
+            if let Some(x) = self.xs.get_mut(self.internal(i)) {
                 *x = T::zero();
             }
         }
@@ -737,8 +925,10 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// those rows and Q the floor there, the estimate kept.)
     pub fn freeze(&mut self, indices: core::ops::Range<usize>) {
         let floor = self.floor;
+        let pos = self.pos;
+        let internal = indices.filter_map(|i| pos.get(i).map(|&a| usize::from(a)));
         let mut q = NoisePart::<T, N>::new(|w| {
-            for i in indices.clone() {
+            for i in internal.clone() {
                 if let Some(e) = w.get_mut(i).and_then(|r| r.get_mut(i)) {
                     *e = floor;
                 }
@@ -747,7 +937,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         let u = self.u.as_mut_slice();
         rows_of_u::<T, N>(u);
         let mut lo: [u8; N] = core::array::from_fn(|i| i as u8);
-        for i in indices {
+        for i in internal {
             if let (Some(row), Some(l)) = (u.get_mut(i * N..(i + 1) * N), lo.get_mut(i)) {
                 row.fill(T::zero());
                 *l = N as u8;
@@ -765,6 +955,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// is refused (counted as non-finite).
     pub fn decay(&mut self, i: usize, d: T) {
         let inv = T::one() / d;
+        let i = self.internal(i);
         if i >= N || !(d > T::zero() && inv.is_finite()) {
             self.health.non_finite += 1;
             return;
@@ -796,25 +987,27 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         phi: &Transition<T, N, R>,
         q: &Noise<T, N, P>,
     ) {
-        let inv = self.inv_scale.as_slice();
+        let (inv, pos) = (self.inv_scale.as_slice(), &self.pos);
         let at = |v: &[T], i: usize| v.get(i).copied().unwrap_or_else(T::zero);
-        let qs = |i: usize, j: usize, v: T| v * at(inv, i) * at(inv, j);
+        let internal = |i: usize| pos.get(i).map_or(N, |&a| usize::from(a));
         let (q_diag, q_pairs) = (&q.diag, &q.pairs);
-        // Q_s = S⁻¹ Q S⁻¹ on the upper triangle, factored; the sum of what went in says
-        // whether it is finite before anything changes.
+        // Q_s = S⁻¹ Q S⁻¹ on the upper triangle (internal order), factored; the sum of
+        // what went in says whether it is finite before anything changes.
         let mut check = T::zero();
         let mut q = NoisePart::<T, N>::new(|w| {
-            for (i, (row, &qd)) in w.iter_mut().zip(q_diag.iter()).enumerate() {
-                let v = qs(i, i, qd);
+            for (i, &qd) in q_diag.iter().enumerate() {
+                let a = internal(i);
+                let v = qd * at(inv, a) * at(inv, a);
                 check += v;
-                if let Some(e) = row.get_mut(i) {
+                if let Some(e) = w.get_mut(a).and_then(|row| row.get_mut(a)) {
                     *e = v;
                 }
             }
             for &(i, j, v) in q_pairs.iter() {
-                let v = qs(i, j, v);
+                let (a, b) = (internal(i), internal(j));
+                let v = v * at(inv, a) * at(inv, b);
                 check += v;
-                if let Some(e) = w.get_mut(i.min(j)).and_then(|row| row.get_mut(i.max(j))) {
+                if let Some(e) = w.get_mut(a.min(b)).and_then(|row| row.get_mut(a.max(b))) {
                     *e += v;
                 }
             }
@@ -827,9 +1020,10 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             self.health.non_finite += 1;
             return;
         };
-        // The static states at the end (see [`orthogonalize`]).
+        // The static states at the end of the internal order (see [`orthogonalize`]).
         let mut t0 = N;
-        while let Some(j) = t0.checked_sub(1) {
+        while let Some(a) = t0.checked_sub(1) {
+            let j = self.state_at.get(a).map_or(N, |&i| usize::from(i));
             let noisy = q_diag.get(j).is_some_and(|&v| v != T::zero())
                 || q_pairs
                     .iter()
@@ -837,7 +1031,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             if noisy || phi.index.contains(&j) {
                 break;
             }
-            t0 = j;
+            t0 = a;
         }
         self.health.variance_clamped += orthogonalize(
             self.u.as_mut_slice(),
@@ -851,19 +1045,22 @@ impl<T: Real, const N: usize> Kalman<T, N> {
 
     /// The time update's `x ← Φ x` and the first part of its Gram-Schmidt matrix,
     /// `W_1 = Φ_s U` (Φ_s(i, k) = Φ(i, k) s_k / s_i), written in U's place, row-major
-    /// (see [`orthogonalize`]); returns where each row's non-zeros start. The rows of Φ
-    /// that are not the identity's, over their non-zero columns, are formed first from
-    /// U's rows (column-major: one element per column). `None` (nothing changed) if one of them
-    /// or `Φ x` is not finite.
+    /// (see [`orthogonalize`]); returns where each row's non-zeros start. U is turned into
+    /// its rows first (the rows of W where Φ is the identity's); the rows of Φ that are
+    /// not, over their non-zero columns, are formed from them (contiguous) and then written
+    /// over them. `None` (U turned back, nothing changed) if one of those rows or `Φ x` is
+    /// not finite. Rows and columns in the internal order.
     #[inline(always)]
     fn phi_u_rows<const R: usize>(&mut self, phi: &Transition<T, N, R>) -> Option<[u8; N]> {
-        let (sc, inv) = (self.scale.as_slice(), self.inv_scale.as_slice());
+        let (sc, inv, pos) = (self.scale.as_slice(), self.inv_scale.as_slice(), self.pos);
         let at = |v: &[T], i: usize| v.get(i).copied().unwrap_or_else(T::zero);
+        let internal = |i: usize| pos.get(i).map_or(N, |&a| usize::from(a));
         let mut active = [[T::zero(); N]; R];
         let mut active_lo = [N as u8; R];
         let mut x_new = [T::zero(); R];
         let mut check = T::zero();
-        let u = self.u.as_slice();
+        let u = self.u.as_mut_slice();
+        rows_of_u::<T, N>(u);
         let rows = active
             .iter_mut()
             .zip(active_lo.iter_mut())
@@ -878,29 +1075,30 @@ impl<T: Real, const N: usize> Kalman<T, N> {
                 continue;
             };
             let cols = cols.get(..n).unwrap_or(&[]);
-            *lo = cols.first().copied().unwrap_or(N as u8);
-            let inv_i = at(inv, i);
+            let inv_i = at(inv, internal(i));
             for &k in cols {
-                let k = usize::from(k);
-                let f = at(vals, k) * at(sc, k) * inv_i;
-                *xn += f * at(self.xs.as_slice(), k);
-                add_urow::<T, N>(row.get_mut(k..).unwrap_or(&mut []), f, u, k);
+                let (k, a) = (usize::from(k), internal(usize::from(k)));
+                *lo = (*lo).min(a as u8);
+                let f = at(vals, k) * at(sc, a) * inv_i;
+                *xn += f * at(self.xs.as_slice(), a);
+                let src = u.get(a * N + a..(a + 1) * N).unwrap_or(&[]);
+                axpy(row.get_mut(a..).unwrap_or(&mut []), f, src);
             }
             check += *xn;
             check = sum_into(check, row);
         }
         if !check.is_finite() {
+            rows_to_cols::<T, N>(u);
             return None;
         }
         for (&xn, &i) in x_new.iter().zip(phi.index.iter()) {
-            if let Some(x) = self.xs.get_mut(i) {
+            if let Some(x) = self.xs.get_mut(internal(i)) {
                 *x = xn;
             }
         }
-        let u = self.u.as_mut_slice();
-        rows_of_u::<T, N>(u);
         let mut lo: [u8; N] = core::array::from_fn(|i| i as u8);
         for ((row, &l), &i) in active.iter().zip(active_lo.iter()).zip(phi.index.iter()) {
+            let i = internal(i);
             if let (Some(dst), Some(e)) = (u.get_mut(i * N..(i + 1) * N), lo.get_mut(i)) {
                 dst.copy_from_slice(row);
                 *e = l;
@@ -916,93 +1114,134 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// `h P hᵀ` of a precise measurement cancels to below `f32`'s resolution), then U and
     /// D column by column. Each conditional variance below the floor is raised to it.
     pub fn update_scalar(&mut self, h: &SVector<T, N>, z: T, r: T, gate: T) -> ScalarUpdate<T> {
-        let (hs, sc) = (h.as_slice(), self.scale.as_slice());
-        let mut f = [T::zero(); N];
-        let mut hx = T::zero();
-        {
-            let (u, xs) = (self.u.as_slice(), self.xs.as_slice());
-            for (i, ((&hi, &si), &xi)) in hs.iter().zip(sc).zip(xs).enumerate() {
-                let v = hi * si;
-                if v != T::zero() {
-                    hx += v * xi;
-                    add_urow::<T, N>(f.get_mut(i..).unwrap_or(&mut []), v, u, i);
-                }
-            }
-        }
-        let mut g = [T::zero(); N];
-        let mut s = r;
-        for ((gj, &fj), &dj) in g.iter_mut().zip(f.iter()).zip(self.d.iter()) {
-            *gj = dj * fj;
-            s += fj * *gj;
-        }
-        let innovation = z - hx;
-        let refused = ScalarUpdate {
-            innovation,
-            variance: s,
-            test_ratio: T::zero(),
-            accepted: false,
+        let mut scratch = [[T::zero(); N]; 3];
+        let [f, g, b] = &mut scratch;
+        let k = Factors {
+            xs: self.xs.as_mut_slice(),
+            u: self.u.as_mut_slice(),
+            d: self.d.as_mut_slice(),
+            scale: self.scale.as_slice(),
+            pos: &self.pos,
+            floor: self.floor,
+            health: &mut self.health,
         };
-        if !(z.is_finite() && r.is_finite() && s.is_finite() && innovation.is_finite()) {
-            self.health.non_finite += 1;
-            return refused;
+        update_n(k, h.as_slice(), (z, r, gate), [f, g, b])
+    }
+}
+
+/// What [`update_n`] works on: the filter's fields (internal order), `n` = `pos.len()`.
+struct Factors<'a, T> {
+    xs: &'a mut [T],
+    /// U, column-major `n × n`.
+    u: &'a mut [T],
+    d: &'a mut [T],
+    scale: &'a [T],
+    pos: &'a [u8],
+    floor: T,
+    health: &'a mut Health,
+}
+
+/// [`Kalman::update_scalar`] for any `n` (the board's two layouts share one copy): `h` in
+/// the caller's order, `(z, r, gate)`, three `n`-element temporaries lent by the caller.
+#[inline(never)]
+fn update_n<T: Real>(
+    k: Factors<'_, T>,
+    h: &[T],
+    (z, r, gate): (T, T, T),
+    scratch: [&mut [T]; 3],
+) -> ScalarUpdate<T> {
+    let Factors {
+        xs,
+        u,
+        d,
+        scale,
+        pos,
+        floor,
+        health,
+    } = k;
+    let [f, g, b] = scratch;
+    let n = pos.len();
+    // f = Uᵀ h over h's non-zeros (a row of U each, from its diagonal on), and h x.
+    let mut hx = T::zero();
+    for (&hk, &p) in h.iter().zip(pos) {
+        if hk != T::zero() {
+            let i = usize::from(p);
+            let v = hk * scale.get(i).copied().unwrap_or_else(T::zero);
+            hx += v * xs.get(i).copied().unwrap_or_else(T::zero);
+            add_urow(f.get_mut(i..).unwrap_or(&mut []), v, u, i, n);
         }
-        if s <= T::zero() {
-            self.health.bad_innovation_variance += 1;
-            return refused;
-        }
-        let test_ratio = innovation * innovation / (gate * gate * s);
-        if test_ratio > T::one() {
-            self.health.gated += 1;
-            self.health.gated_streak += 1;
-            self.health.max_gated_streak =
-                self.health.max_gated_streak.max(self.health.gated_streak);
-            return ScalarUpdate {
-                test_ratio,
-                ..refused
-            };
-        }
-        self.health.gated_streak = 0;
-        // Bierman: α from r up, column j of U and D_j from the old ones; b ends as P h.
-        let mut b = [T::zero(); N];
-        let mut alpha = r;
-        let mut clamped = 0;
-        let floor = self.floor;
-        let cols = self.u.as_mut_slice().chunks_exact_mut(N);
-        let steps = cols.zip(self.d.iter_mut()).zip(f.iter().zip(g.iter()));
-        for (j, ((col, dj), (&fj, &gj))) in steps.enumerate() {
-            if fj == T::zero() {
-                continue; // the step is the identity (g_j = 0, λ = 0)
-            }
-            let prev = alpha;
-            alpha += fj * gj;
-            if alpha > T::zero() {
-                *dj *= prev / alpha;
-            }
-            let lambda = if prev > T::zero() {
-                -fj / prev
-            } else {
-                T::zero()
-            };
-            let (above, from_j) = b.split_at_mut(j.min(N));
-            bierman_column(col.get_mut(..j).unwrap_or(&mut []), above, lambda, gj);
-            if let Some(bj) = from_j.first_mut() {
-                *bj = gj;
-            }
-            if *dj < floor {
-                *dj = floor;
-                clamped += 1;
-            }
-        }
-        // K = P h / s, x ← x + K ν.
-        axpy(self.xs.as_mut_slice(), innovation / s, &b);
-        self.health.variance_clamped += clamped;
-        self.health.updates += 1;
-        ScalarUpdate {
-            innovation,
-            variance: s,
+    }
+    let mut s = r;
+    for ((gj, &fj), &dj) in g.iter_mut().zip(f.iter()).zip(d.iter()) {
+        *gj = dj * fj;
+        s += fj * *gj;
+    }
+    let innovation = z - hx;
+    let refused = ScalarUpdate {
+        innovation,
+        variance: s,
+        test_ratio: T::zero(),
+        accepted: false,
+    };
+    if !(z.is_finite() && r.is_finite() && s.is_finite() && innovation.is_finite()) {
+        health.non_finite += 1;
+        return refused;
+    }
+    if s <= T::zero() {
+        health.bad_innovation_variance += 1;
+        return refused;
+    }
+    let test_ratio = innovation * innovation / (gate * gate * s);
+    if test_ratio > T::one() {
+        health.gated += 1;
+        health.gated_streak += 1;
+        health.max_gated_streak = health.max_gated_streak.max(health.gated_streak);
+        return ScalarUpdate {
             test_ratio,
-            accepted: true,
+            ..refused
+        };
+    }
+    health.gated_streak = 0;
+    // Bierman: α from r up, column j of U and D_j from the old ones; b ends as P h.
+    let mut alpha = r;
+    let mut clamped = 0;
+    let steps = u
+        .chunks_exact_mut(n.max(1))
+        .zip(d.iter_mut())
+        .zip(f.iter().zip(g.iter()));
+    for (j, ((col, dj), (&fj, &gj))) in steps.enumerate() {
+        if fj == T::zero() {
+            continue; // the step is the identity (g_j = 0, λ = 0)
         }
+        let prev = alpha;
+        alpha += fj * gj;
+        if alpha > T::zero() {
+            *dj *= prev / alpha;
+        }
+        let lambda = if prev > T::zero() {
+            -fj / prev
+        } else {
+            T::zero()
+        };
+        let (above, from_j) = b.split_at_mut(j.min(b.len()));
+        bierman_column(col.get_mut(..j).unwrap_or(&mut []), above, lambda, gj);
+        if let Some(bj) = from_j.first_mut() {
+            *bj = gj;
+        }
+        if *dj < floor {
+            *dj = floor;
+            clamped += 1;
+        }
+    }
+    // K = P h / s, x ← x + K ν.
+    axpy(xs, innovation / s, b);
+    health.variance_clamped += clamped;
+    health.updates += 1;
+    ScalarUpdate {
+        innovation,
+        variance: s,
+        test_ratio,
+        accepted: true,
     }
 }
 
@@ -1269,5 +1508,79 @@ mod tests {
         let (x1, p1) = dense_propagation(&phi, &q, &x, &p);
         assert!((kf.state() - x1).norm() < 1e-12 * x1.norm());
         assert!((kf.covariance() - p1).norm() < 1e-12 * p1.norm());
+    }
+
+    /// Factors of a 9-state `P₀` with ties (`U(i, j)`, `i < j`) and the states 2, 3 and 6
+    /// static; `tie` one more entry of U.
+    fn restart_nine(
+        kf: &mut Kalman<f64, 9>,
+        is_static: impl Fn(usize) -> bool,
+        tie: (usize, usize),
+    ) {
+        kf.restart_factored(1e-12, is_static, |u, d| {
+            for (i, j, v) in [
+                (0, 2, 0.4),
+                (0, 5, -0.3),
+                (1, 3, 0.7),
+                (4, 5, 0.2),
+                (7, 8, 0.5),
+            ] {
+                u[(i, j)] = v;
+            }
+            u[tie] += 0.25;
+            for (k, e) in d.iter_mut().enumerate() {
+                *e = 0.5 + 0.3 * k as f64;
+            }
+        });
+    }
+
+    #[test]
+    fn static_states_held_last_give_the_same_filter() {
+        let is_static = |i: usize| matches!(i, 2 | 3 | 6);
+        let mut last = Kalman::<f64, 9>::unstarted(1e-12);
+        let mut plain = Kalman::<f64, 9>::unstarted(1e-12);
+        restart_nine(&mut last, is_static, (1, 4));
+        restart_nine(&mut plain, |_| false, (1, 4));
+        assert_eq!(last.pos, [0, 1, 6, 7, 2, 3, 8, 4, 5]);
+        let mut phi = Transition::<f64, 9, 2>::new([0, 5]);
+        phi.set_row(0, &[1.0, 0.1, 0.3, 0.0, 0.0, 0.2, 0.05, 0.0, 0.0]);
+        phi.set_row(1, &[0.0, 0.0, 0.0, 0.4, 0.1, 0.9, 0.0, 0.0, 0.2]);
+        let q = Noise::<f64, 9, 1> {
+            diag: [0.01, 0.02, 0.0, 0.0, 0.03, 0.04, 0.0, 0.05, 0.06],
+            pairs: [(8, 4, 0.003)],
+        };
+        let h1 =
+            SVector::<f64, 9>::from_column_slice(&[1.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.3, 1.0, 0.0]);
+        let h2 =
+            SVector::<f64, 9>::from_column_slice(&[0.0, 1.0, 0.0, -0.4, 0.0, 1.0, 0.0, 0.0, 0.2]);
+        let same = |a: &Kalman<f64, 9>, b: &Kalman<f64, 9>| {
+            let (pa, pb) = (a.covariance(), b.covariance());
+            assert!((pa - pb).norm() < 1e-12 * pb.norm(), "{pa} {pb}");
+            assert!((a.state() - b.state()).norm() < 1e-12 * b.state().norm());
+            for i in 0..9 {
+                assert!((a.sigma(i) - b.sigma(i)).abs() < 1e-12 * b.sigma(i));
+            }
+        };
+        for kf in [&mut last, &mut plain] {
+            kf.update_scalar(&h1, 1.0, 0.5, 1e6);
+            kf.decay(4, 0.9);
+            kf.predict(&phi, &q);
+            kf.update_scalar(&h2, -0.5, 0.3, 1e6);
+        }
+        same(&last, &plain);
+        for kf in [&mut last, &mut plain] {
+            kf.reset_states(1..3);
+            kf.freeze(2..4);
+            kf.predict(&phi, &q);
+        }
+        same(&last, &plain);
+    }
+
+    #[test]
+    fn a_static_state_tied_to_a_later_one_keeps_the_callers_order() {
+        // U(2, 5): state 2 follows state 5, so 2 cannot move behind it.
+        let mut kf = Kalman::<f64, 9>::unstarted(1e-12);
+        restart_nine(&mut kf, |i| matches!(i, 2 | 3 | 6), (2, 5));
+        assert_eq!(kf.pos, core::array::from_fn(|i| i as u8));
     }
 }
