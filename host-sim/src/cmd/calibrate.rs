@@ -346,7 +346,12 @@ pub fn calibrate(
             progress.phase("aligning the clocks");
             prefilter::read_window(dir, CLOCK_WINDOW_S + CLOCK_SEARCH_S + 1.0)?
         };
-        let pre_filter = pre_filter(&window, &mut cfg, false);
+        progress.phase("searching the master's attitude for steps");
+        let steps = prefilter::steps_step(prefilter::master_messages(dir)?, &mut cfg);
+        let pre_filter = prefilter::prepare_after_steps(&window, &mut cfg, false, steps);
+        for l in pre_filter.lines() {
+            eprintln!("flexcal: {l}");
+        }
         eprintln!("flexcal: flexure model: configured");
         Prepared {
             cfg,
