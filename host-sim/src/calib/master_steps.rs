@@ -35,6 +35,9 @@ pub const STEP_SIGMAS: f64 = 8.0;
 /// The smallest step reported (rad, 0.05°), whatever the spread: a noiseless master's
 /// residuals are the integration's rounding, and 8 of their spread is no step.
 pub const STEP_FLOOR_RAD: f64 = 0.05 * std::f64::consts::PI / 180.0;
+/// The messages on either side of a step whose mean error level measures it
+/// ([`refine`]).
+pub const REFINE_INTERVALS: usize = 20;
 /// Intervals longer than this many median intervals (a gap in the master's output) are
 /// not tested: the rate's integration across them is not accurate enough.
 pub const MAX_INTERVAL_MEDIANS: f64 = 3.0;
@@ -108,6 +111,60 @@ struct Residual {
     r: UnitQuaternion<f64>,
 }
 
+/// Whether interval `i` starts where interval `i − 1` ends (no untested gap between).
+fn contiguous(res: &[Residual], i: usize) -> bool {
+    match (i.checked_sub(1).and_then(|j| res.get(j)), res.get(i)) {
+        (Some(a), Some(b)) => a.t == b.after,
+        _ => false,
+    }
+}
+
+/// The step of the flagged run `i0..=i1` (composed residual `total`) measured between
+/// the master's mean error level over up to [`REFINE_INTERVALS`] messages on either
+/// side instead of between the two messages around it: the residual of one interval
+/// holds the attitude noise of both its messages; the levels average it down.
+/// `Exp(A) total Exp(B)`, with `A` the mean of the error after the step relative to its
+/// first message (the cumulated residuals after it) and `B` the last message before
+/// relative to the mean before; each side stops at another flagged interval or a gap.
+fn refine(
+    res: &[Residual],
+    vecs: &[Vector3<f64>],
+    flagged: &[Vec<usize>],
+    i0: usize,
+    i1: usize,
+    total: UnitQuaternion<f64>,
+) -> UnitQuaternion<f64> {
+    let clean = |i: usize| flagged.get(i).is_some_and(|f| f.is_empty());
+    // After: e_{s+j} − e_s = Σ_{i=1..j} r, j = 0.. while clean and contiguous.
+    let (mut cum, mut sum, mut n) = (Vector3::zeros(), Vector3::zeros(), 1.0);
+    for (j, v) in vecs
+        .iter()
+        .enumerate()
+        .take(i1 + REFINE_INTERVALS)
+        .skip(i1 + 1)
+    {
+        if !(clean(j) && contiguous(res, j)) {
+            break;
+        }
+        cum += v;
+        sum += cum;
+        n += 1.0;
+    }
+    let after = sum / n;
+    // Before: e_{s−1} − e_{s−1−j} = Σ_{i=0..j−1} r_{s−1−i}.
+    let (mut cum, mut sum, mut n) = (Vector3::zeros(), Vector3::zeros(), 1.0);
+    let mut j = i0;
+    while j > 0 && i0 - j + 1 < REFINE_INTERVALS && clean(j - 1) && contiguous(res, j) {
+        j -= 1;
+        let Some(v) = vecs.get(j) else { break };
+        cum += v;
+        sum += cum;
+        n += 1.0;
+    }
+    let before = sum / n;
+    quat_exp(&after) * total * quat_exp(&before)
+}
+
 /// Finds the steps of the master's attitude in `master` (time order, the master's own
 /// tags), reading it once and keeping one residual per message. Refused, saying why,
 /// when a message has no rate or there are too few messages; an error of the source
@@ -169,59 +226,46 @@ pub fn find_steps(
         noise_rad[k] = 1.4826 * median(&mut dev);
     }
     let threshold_rad = noise_rad.map(|s| (STEP_SIGMAS * s).max(STEP_FLOOR_RAD));
-    let mut steps: Vec<FoundStep> = Vec::new();
-    let mut open: Option<(FoundStep, UnitQuaternion<f64>)> = None;
-    for (x, v) in res.iter().zip(&vecs) {
-        let axes: Vec<usize> = (0..3)
-            .filter(|&k| (v[k] - centre[k]).abs() > threshold_rad[k])
-            .collect();
-        if axes.is_empty() {
-            if let Some((s, _)) = open.take() {
-                steps.push(s);
-            }
+    let flagged: Vec<Vec<usize>> = vecs
+        .iter()
+        .map(|v| {
+            (0..3)
+                .filter(|&k| (v[k] - centre[k]).abs() > threshold_rad[k])
+                .collect()
+        })
+        .collect();
+    // Runs of consecutive flagged intervals (each the next message's interval).
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    for (i, f) in flagged.iter().enumerate() {
+        if f.is_empty() {
             continue;
         }
-        let (mut s, total) = match open.take() {
-            Some((s, total)) if s.t_s == x.after => (s, x.r * total),
-            other => {
-                if let Some((s, _)) = other {
-                    steps.push(s);
-                }
-                let s = FoundStep {
-                    t_s: x.t,
-                    after_s: x.after,
-                    rotation_rad: [0.0; 3],
-                    size_deg: 0.0,
-                    axes: Vec::new(),
-                    intervals: 0,
-                };
-                (s, x.r)
-            }
-        };
-        let rv = quat_log(&total);
-        s.t_s = x.t;
-        s.rotation_rad = rv.into();
-        s.size_deg = rv.norm().to_degrees();
-        for k in axes {
-            if !s.axes.contains(&k) {
-                s.axes.push(k);
-            }
-        }
-        s.axes.sort_unstable();
-        s.intervals += 1;
-        open = Some((s, total));
-    }
-    if let Some((s, _)) = open {
-        steps.push(s);
-    }
-    // A step spanning several intervals is stamped at its first message after.
-    for s in &mut steps {
-        if s.intervals > 1 {
-            if let Some(first) = res.iter().find(|x| x.after == s.after_s) {
-                s.t_s = first.t;
-            }
+        match runs.last_mut() {
+            Some((_, end)) if *end + 1 == i && contiguous(&res, i) => *end = i,
+            _ => runs.push((i, i)),
         }
     }
+    let steps = runs
+        .into_iter()
+        .filter_map(|(i0, i1)| {
+            let total = res
+                .get(i0..=i1)?
+                .iter()
+                .fold(UnitQuaternion::identity(), |acc, x| x.r * acc);
+            let rv = quat_log(&refine(&res, &vecs, &flagged, i0, i1, total));
+            let mut axes: Vec<usize> = flagged.get(i0..=i1)?.iter().flatten().copied().collect();
+            axes.sort_unstable();
+            axes.dedup();
+            Some(FoundStep {
+                t_s: res.get(i0)?.t,
+                after_s: res.get(i0)?.after,
+                rotation_rad: rv.into(),
+                size_deg: rv.norm().to_degrees(),
+                axes,
+                intervals: i1 - i0 + 1,
+            })
+        })
+        .collect();
     Ok(StepSearch {
         intervals: res.len(),
         untested_gaps,
