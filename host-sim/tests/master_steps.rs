@@ -6,8 +6,9 @@
 //! (controls) the search reports none. The table with and without the handling in
 //! `docs/diagnosis.md` comes from `scripts/master-steps-table.sh`; these are short runs.
 
-use flexcal_sim::calib::master_steps::find_steps;
-use flexcal_sim::calib::prefilter::StepsSource;
+use flexcal_sim::calib::config::CalibConfig;
+use flexcal_sim::calib::master_steps::StepSearch;
+use flexcal_sim::calib::prefilter::{prepare, StepsSource};
 use flexcal_sim::calib::run::{run, Precision};
 use flexcal_sim::calib::score::score;
 use flexcal_sim::cmd::calibrate::prepare_config;
@@ -57,6 +58,10 @@ fn assert_found(found: &[[f64; 4]], truth: &AttitudeSteps, master_period_s: f64)
             - Vector3::from(t.rotation_deg).map(f64::to_radians))
         .norm()
         .to_degrees();
+        eprintln!(
+            "step at {:.2} s found at {:.2} s, {err:.4}° off",
+            t.t_s, f[0]
+        );
         assert!(err < 0.1, "step at {} s: rotation {err}° off", t.t_s);
     }
 }
@@ -107,19 +112,55 @@ fn ten_degree_steps_are_found_and_do_not_drag_the_biases_seed_5() {
     steps_found_and_biases_within_3_sigma(5);
 }
 
+/// The steps before the filter on `rec` with nothing configured (no model learned).
+fn searched(rec: &Recording) -> (Result<StepSearch, String>, CalibConfig) {
+    let mut cfg = CalibConfig::default();
+    let p = prepare(rec, &mut cfg, false);
+    match p.steps {
+        StepsSource::Searched(s) => (s, cfg),
+        other => panic!("not searched: {other:?}"),
+    }
+}
+
 /// The same draws without steps, every kind of master among them (noiseless, white,
-/// smooth): the search finds none.
+/// smooth), with and without the master's rate: the search finds none.
 #[test]
 fn without_steps_the_search_reports_none() {
     for seed in 1..=10 {
-        let (sc, _) = draw(seed, false);
+        let (mut sc, _) = draw(seed, false);
+        for gives_rate in [true, false] {
+            sc.master.gives_rate = gives_rate;
+            let rec = recording(&sc, seed);
+            let (s, _) = searched(&rec);
+            let s = s.expect("searched");
+            let expected = if gives_rate {
+                "master rate"
+            } else {
+                "slave gyro"
+            };
+            assert_eq!(s.source, expected);
+            assert!(
+                s.steps.is_empty(),
+                "seed {seed}, against the {}: {} steps reported: {:?}",
+                s.source,
+                s.steps.len(),
+                s.steps
+            );
+        }
+    }
+}
+
+/// A master that gives no rate: its steps found against the slave's gyro, rotated by
+/// the mounting found before (each to 0.1°, at the first message after it).
+#[test]
+fn without_the_masters_rate_the_slave_gyro_finds_the_steps() {
+    for seed in [3, 5] {
+        let (mut sc, truth) = draw(seed, true);
+        sc.master.gives_rate = false;
         let rec = recording(&sc, seed);
-        let s = find_steps(rec.master.iter().cloned().map(Ok)).expect("searched");
-        assert!(
-            s.steps.is_empty(),
-            "seed {seed}: {} steps reported: {:?}",
-            s.steps.len(),
-            s.steps
-        );
+        let (s, cfg) = searched(&rec);
+        assert_eq!(s.expect("searched").source, "slave gyro");
+        let found = cfg.master_attitude_steps.unwrap_or_default();
+        assert_found(&found, &truth.expect("steps"), 1.0 / sc.master.rate_hz);
     }
 }

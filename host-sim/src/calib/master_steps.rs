@@ -22,6 +22,7 @@
 //! the learned model's smooth master error takes. Why taking them out and not
 //! down-weighting the attitude matching: `docs/diagnosis.md` (the measured table).
 
+use super::clock::SlaveAngles;
 use crate::recording::MasterMsg;
 use flexcal_core::earth::{self, Position};
 use flexcal_core::rotation::{quat_exp, quat_log};
@@ -64,8 +65,13 @@ pub struct FoundStep {
 pub struct StepSearch {
     /// Intervals tested.
     pub intervals: usize,
-    /// Intervals not tested (a gap in the master's output).
+    /// Intervals not tested (a gap in the master's output, or where the slave's samples
+    /// do not cover it).
     pub untested_gaps: usize,
+    /// What predicted the master's rotation: `"master rate"` or `"slave gyro"`.
+    pub source: &'static str,
+    /// The master's time tags searched, first and last (s).
+    pub span_s: [f64; 2],
     /// Robust σ of the residual per ENU axis (rad).
     pub noise_rad: [f64; 3],
     /// The threshold per ENU axis (rad).
@@ -166,38 +172,104 @@ fn refine(
 }
 
 /// Finds the steps of the master's attitude in `master` (time order, the master's own
-/// tags), reading it once and keeping one residual per message. Refused, saying why,
-/// when a message has no rate or there are too few messages; an error of the source
-/// ends the search with it.
+/// tags) against its own rate, reading it once and keeping one residual per message.
+/// Refused, saying why, when a message has no rate or there are too few messages; an
+/// error of the source ends the search with it.
 pub fn find_steps(
     master: impl IntoIterator<Item = Result<MasterMsg, String>>,
 ) -> Result<StepSearch, String> {
+    search(master, "master rate", &mut |a, b, qa, qb| {
+        let (Some(wa), Some(wb)) = (rate_nb(a, qa), rate_nb(b, qb)) else {
+            return Err(format!(
+                "the master message at t = {} s gives no angular rate: its attitude steps are not searched against its own rate",
+                if a.omega_ib_bm_radps.is_none() { a.t } else { b.t }
+            ));
+        };
+        let dt = b.t - a.t;
+        Ok(Some(
+            (wa + wb) * (0.5 * dt) + wa.cross(&wb) * (dt * dt / 12.0),
+        ))
+    })
+}
+
+/// [`find_steps`] for a master without rate: its rotation between two messages
+/// predicted by the slave's gyro over the same interval on the slave's clock
+/// (`clock_offset_s`, the master's tags late on the slave's), rotated into the master's
+/// body by the mounting `C_bs^bm = Exp(mounting_rad)`, less the navigation frame's turn
+/// (`Cᵀ(ω_ie + ω_en) Δt`). The slave's gyro bias (a few hundred °/h on a MEMS unit: a
+/// few thousandths of a degree per interval) and the flexure's rate are in the
+/// residual's spread; intervals the slave's samples do not cover are not tested.
+pub fn find_steps_with_slave(
+    master: &[MasterMsg],
+    slave: &SlaveAngles,
+    mounting_rad: [f64; 3],
+    clock_offset_s: f64,
+) -> Result<StepSearch, String> {
+    let c = quat_exp(&Vector3::from(mounting_rad));
+    search(
+        master.iter().cloned().map(Ok),
+        "slave gyro",
+        &mut |a, b, qa, _| {
+            let Some(phi_s) = slave.rotation(a.t - clock_offset_s, b.t - clock_offset_s) else {
+                return Ok(None);
+            };
+            let pos = Position {
+                lat_rad: a.lat_deg.to_radians(),
+                lon_rad: a.lon_deg.to_radians(),
+                height_m: a.height_m,
+            };
+            let w_in = earth::earth_rate_n(pos.lat_rad)
+                + earth::transport_rate_n(&pos, &Vector3::from(a.v_n_mps));
+            Ok(Some(
+                c * phi_s - qa.inverse_transform_vector(&w_in) * (b.t - a.t),
+            ))
+        },
+    )
+}
+
+/// The master's body rotation from message `a` to `b` (rad, master body, relative to
+/// the navigation frame) as a source predicts it: `None` where it cannot (the interval
+/// is then not tested), an error where it never will.
+type Predict<'a> = dyn FnMut(
+        &MasterMsg,
+        &MasterMsg,
+        &UnitQuaternion<f64>,
+        &UnitQuaternion<f64>,
+    ) -> Result<Option<Vector3<f64>>, String>
+    + 'a;
+
+/// The search of [`find_steps`] with the master's rotation between messages from
+/// `predict`.
+fn search(
+    master: impl IntoIterator<Item = Result<MasterMsg, String>>,
+    source: &'static str,
+    predict: &mut Predict<'_>,
+) -> Result<StepSearch, String> {
     let mut all = Vec::new();
     let mut dts = Vec::new();
-    let mut prev: Option<(f64, UnitQuaternion<f64>, Vector3<f64>)> = None;
+    let mut unpredicted = 0;
+    let mut prev: Option<(MasterMsg, UnitQuaternion<f64>)> = None;
     for m in master {
         let m = m?;
         let q = quat(&m);
-        let Some(w) = rate_nb(&m, &q) else {
-            return Err(format!(
-                "the master message at t = {} s gives no angular rate: its attitude steps are not searched",
-                m.t
-            ));
-        };
-        if let Some((ta, qa, wa)) = prev {
-            let dt = m.t - ta;
-            let phi = (wa + w) * (0.5 * dt) + wa.cross(&w) * (dt * dt / 12.0);
-            all.push((
-                dt,
-                Residual {
-                    t: m.t,
-                    after: ta,
-                    r: q * (qa * quat_exp(&phi)).inverse(),
-                },
-            ));
-            dts.push(dt);
+        if let Some((a, qa)) = &prev {
+            let dt = m.t - a.t;
+            match predict(a, &m, qa, &q)? {
+                Some(phi) => {
+                    all.push((
+                        dt,
+                        Residual {
+                            t: m.t,
+                            after: a.t,
+                            r: q * (qa * quat_exp(&phi)).inverse(),
+                        },
+                    ));
+                    dts.push(dt);
+                }
+                None => unpredicted += 1,
+            }
         }
-        prev = Some((m.t, q, w));
+        prev = Some((m, q));
     }
     let dt_median = median(&mut dts);
     if all.len() < 20 || dt_median <= 0.0 {
@@ -207,10 +279,11 @@ pub fn find_steps(
         ));
     }
     let max_dt = MAX_INTERVAL_MEDIANS * dt_median;
-    let untested_gaps = all
-        .iter()
-        .filter(|(dt, _)| !(*dt > 0.0 && *dt <= max_dt))
-        .count();
+    let untested_gaps = unpredicted
+        + all
+            .iter()
+            .filter(|(dt, _)| !(*dt > 0.0 && *dt <= max_dt))
+            .count();
     let res: Vec<Residual> = all
         .into_iter()
         .filter(|(dt, _)| *dt > 0.0 && *dt <= max_dt)
@@ -267,6 +340,11 @@ pub fn find_steps(
         })
         .collect();
     Ok(StepSearch {
+        source,
+        span_s: [
+            res.first().map_or(f64::NAN, |x| x.after),
+            res.last().map_or(f64::NAN, |x| x.t),
+        ],
         intervals: res.len(),
         untested_gaps,
         noise_rad,
