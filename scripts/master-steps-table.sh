@@ -15,7 +15,8 @@
 #
 #   scripts/master-steps-table.sh OUT_DIR [STEP_DEG] [DURATION_S] [SEEDS...]
 #
-# Defaults: 10°, 120 s, seeds 1 to 10. Uses target/release/flexcal (build it first:
+# Defaults: 10°, 120 s, seeds 1 to 10. VARIANTS (default "out kept no-att control") runs
+# only the rows named. Uses target/release/flexcal (build it first:
 # cargo build --release -p flexcal-sim) unless FLEXCAL names another; python3 (3.11, for
 # tomllib) reads the TOML and JSON.
 set -euo pipefail
@@ -26,6 +27,7 @@ shift $(( $# < 3 ? $# : 3 ))
 seeds=("$@")
 [ ${#seeds[@]} -gt 0 ] || seeds=(1 2 3 4 5 6 7 8 9 10)
 F="${FLEXCAL:-target/release/flexcal}"
+variants=" ${VARIANTS:-out kept no-att control} "
 mkdir -p "$out"
 cat > "$out/no-attitude.toml" <<'EOF'
 # The attitude matching off; the model learned (tune) from the built-in defaults.
@@ -63,14 +65,22 @@ echo "|---|---|---|---|---|---|---|---|"
 for s in "${seeds[@]}"; do
   r="$out/b$s"
   "$F" simulate --blind --seed "$s" --duration "$dur" --master-step-deg "$step" --out "$r" > /dev/null
-  "$F" calibrate "$r" --out "$r-out" > /dev/null 2>&1 || true
-  row "$s, out" "$r-out/summary.json" "$r.drawn.toml"
-  "$F" calibrate "$r" --keep-master-steps --out "$r-kept" > /dev/null 2>&1 || true
-  row "$s, kept" "$r-kept/summary.json" "$r.drawn.toml"
-  "$F" calibrate "$r" --keep-master-steps --config "$out/no-attitude.toml" --out "$r-noatt" > /dev/null 2>&1 || true
-  row "$s, no-att" "$r-noatt/summary.json" "$r.drawn.toml"
-  c="$out/c$s"
-  "$F" simulate --blind --seed "$s" --duration "$dur" --out "$c" > /dev/null
-  "$F" calibrate "$c" --out "$c-out" > /dev/null 2>&1 || true
-  row "$s, no steps (control)" "$c-out/summary.json" "$c.drawn.toml"
+  if [[ $variants == *" out "* ]]; then
+    "$F" calibrate "$r" --out "$r-out" > /dev/null 2>&1 || true
+    row "$s, out" "$r-out/summary.json" "$r.drawn.toml"
+  fi
+  if [[ $variants == *" kept "* ]]; then
+    "$F" calibrate "$r" --keep-master-steps --out "$r-kept" > /dev/null 2>&1 || true
+    row "$s, kept" "$r-kept/summary.json" "$r.drawn.toml"
+  fi
+  if [[ $variants == *" no-att "* ]]; then
+    "$F" calibrate "$r" --keep-master-steps --config "$out/no-attitude.toml" --out "$r-noatt" > /dev/null 2>&1 || true
+    row "$s, no-att" "$r-noatt/summary.json" "$r.drawn.toml"
+  fi
+  if [[ $variants == *" control "* ]]; then
+    c="$out/c$s"
+    "$F" simulate --blind --seed "$s" --duration "$dur" --out "$c" > /dev/null
+    "$F" calibrate "$c" --out "$c-out" > /dev/null 2>&1 || true
+    row "$s, no steps (control)" "$c-out/summary.json" "$c.drawn.toml"
+  fi
 done
