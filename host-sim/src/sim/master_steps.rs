@@ -181,6 +181,22 @@ mod tests {
     }
 
     #[test]
+    fn a_scenario_with_steps_out_of_order_is_refused_naming_the_step() {
+        let mut sc = crate::sim::Scenario::load("moored").expect("built-in");
+        let step = |t_s| AttitudeStep {
+            t_s,
+            rotation_deg: [0.0, 0.0, 10.0],
+            drift_deg_s: [0.0; 3],
+        };
+        sc.undeclared.master_attitude_steps = Some(AttitudeSteps {
+            initial_drift_deg_s: [0.0; 3],
+            steps: vec![step(20.0), step(10.0)],
+        });
+        let e = sc.validate().expect_err("out of order");
+        assert!(e.contains("steps[1].t_s"), "{e}");
+    }
+
+    #[test]
     fn bad_sizes_are_refused_with_their_value() {
         let t = StepTimes::Stated(vec![1.0]);
         let e = draw_steps(1, 10.0, -1.0, &t, 0.0).expect_err("negative size");
