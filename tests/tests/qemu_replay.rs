@@ -397,6 +397,7 @@ fn paper_with_effects(duration_s: f64, dir: &Path, effects: &[Effect]) -> PathBu
         drawn: None,
         clock_offset: None,
         mounting_deg: None,
+        master_steps: Default::default(),
     })
     .expect("flexcal simulate");
     let declared = std::fs::read_to_string(rec_dir.join("calibrate.toml")).expect("calibrate.toml");
@@ -435,6 +436,7 @@ fn paper_gyro_scale_factor_in_qemu_matches_calibrate_f32() {
             no_dynamic_lever_arm: false,
             identify_flexure: false,
             effects: Vec::new(),
+            keep_master_steps: false,
         },
     };
     // `flexcal replay --qemu --config augmented.toml --transport semihosting`.

@@ -149,6 +149,13 @@ pub struct CalibConfig {
     /// when the engine could not follow it as a delay.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub master_clock_offset_s: Option<f64>,
+    /// Steps of the master's attitude taken out before the filter, each
+    /// `[t_s, x, y, z]`: the master's time tag of the first message after it (s, its own
+    /// tags) and the jump as a rotation vector, ENU (rad) (`calib::master_steps`).
+    /// Absent: searched before the filter (from the master's own rate) and taken out;
+    /// `[]`: none taken out, none searched.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub master_attitude_steps: Option<Vec<[f64; 4]>>,
     /// Treat this configuration as the starting point of a model learned from the
     /// recording (`flexcal calibrate`, `diagnose`, `montecarlo` learn first), instead of
     /// the fixed truth about the data (false, the default for a file).
@@ -199,6 +206,7 @@ impl CalibConfig {
             initial_delay_s: 0.0,
             mounting_estimate_rad: None,
             master_clock_offset_s: None,
+            master_attitude_steps: None,
             tune: false,
         }
     }
@@ -404,6 +412,17 @@ impl CalibConfig {
                 "`master_clock_offset_s` must be a number of seconds, got {:?}",
                 self.master_clock_offset_s
             ));
+        }
+        if let Some(steps) = &self.master_attitude_steps {
+            let mut before = f64::NEG_INFINITY;
+            for (k, s) in steps.iter().enumerate() {
+                if !(s.iter().all(|v| v.is_finite()) && s[0] > before) {
+                    return Err(format!(
+                        "`master_attitude_steps[{k}]` must be finite [t_s, x, y, z] after the step before, got {s:?}"
+                    ));
+                }
+                before = s[0];
+            }
         }
         let max = flexcal_core::engine::MAX_DELAY_S;
         if !(self.initial_delay_s.is_finite() && self.initial_delay_s.abs() <= max) {

@@ -1,6 +1,9 @@
-//! The steps before the filter: the two clocks aligned from the body rates
+//! The steps before the filter: the master's attitude steps found and taken out
+//! (`calib::master_steps`), the two clocks aligned from the body rates
 //! (`calib::clock`), then, on a model learned from the recording, the mounting found on
-//! the aligned data (`calib::mounting`).
+//! the aligned data (`calib::mounting`). The clocks and the mounting are found on the
+//! master with its steps taken out: a 10° step inside one of their blocks is that
+//! block's rotation wrong by 10°.
 //!
 //! The engine follows a master delay itself (`time_delay`, `docs/diagnosis.md`) only
 //! within its reach: a master late by τ is matched from the slave's alignment buffer
@@ -13,10 +16,14 @@
 //! milliseconds. An offset within the reach is left to the model (the diagnosis's
 //! `time_delay` candidate measures it to a fraction of a millisecond) and only reported.
 
+use super::clock::SlaveAngles;
 use super::clock::{clock_offset, ClockOffset, ClockRefusal};
 use super::config::CalibConfig;
+use super::master_steps::{
+    find_steps, find_steps_with_slave, FoundStep, StepCorrection, StepSearch,
+};
 use super::mounting::{coarse_mounting_after_clock, CoarseMounting};
-use crate::recording::{open_recording, Recording};
+use crate::recording::{open_recording, MasterMsg, Recording};
 use flexcal_core::engine::{ALIGN_DEPTH, MAX_DELAY_S, PENDING_DEPTH};
 use serde_json::{json, Value};
 use std::path::Path;
@@ -50,9 +57,20 @@ pub struct ClockStep {
     pub applied_s: f64,
 }
 
+/// Where the master's attitude steps came from.
+#[derive(Clone, Debug)]
+pub enum StepsSource {
+    /// `master_attitude_steps` in the configuration: not searched.
+    Configured(usize),
+    /// Searched in the master's attitude against its rate, or not, with the reason.
+    Searched(Result<StepSearch, String>),
+}
+
 /// Everything done before the filter.
 #[derive(Clone, Debug)]
 pub struct PreFilter {
+    /// The master's attitude steps.
+    pub steps: StepsSource,
     /// The clocks.
     pub clock: ClockStep,
     /// The mounting found on the aligned data, when this step found it (a learned model
@@ -94,23 +112,147 @@ pub fn clock_step(rec: &Recording, cfg: &CalibConfig) -> ClockStep {
     }
 }
 
-/// The steps before the filter on the whole recording `rec`: the clocks, and the
-/// mounting when the model is to be learned (`learning`), none is configured and the
-/// clocks were moved. Writes the clock shift (and that mounting) into `cfg`.
+/// The master's attitude steps, searched unless configured: against the master's own
+/// rate in `master` (all its messages) when it gives one, else against the slave's gyro
+/// in `rec` (the whole recording, or a window of it when it is streamed); the steps
+/// found are written into `cfg` (`master_attitude_steps`), so every run of the filter
+/// takes them out.
+pub fn steps_step(
+    master: impl IntoIterator<Item = Result<MasterMsg, String>>,
+    master_has_rate: bool,
+    rec: &Recording,
+    cfg: &mut CalibConfig,
+) -> StepsSource {
+    if let Some(s) = &cfg.master_attitude_steps {
+        return StepsSource::Configured(s.len());
+    }
+    let found = if master_has_rate {
+        find_steps(master)
+    } else {
+        steps_from_slave(rec, cfg)
+    };
+    if let Ok(f) = &found {
+        if !f.steps.is_empty() {
+            cfg.master_attitude_steps = Some(f.steps.iter().map(FoundStep::as_config).collect());
+        }
+    }
+    StepsSource::Searched(found)
+}
+
+/// The steps of a master without rate, against the slave's gyro: the clocks and the
+/// mounting first (configured, else found on the recording as it is), then the steps;
+/// then, when steps were found and the clocks or the mounting were not configured, both
+/// found again on the master with those steps taken out, and the steps searched again
+/// with them. A 10° step spoils the clock's and the mounting's blocks it falls in (blind
+/// seed 3: the steps came out 0.35° off, the mounting's error times each interval's
+/// rotation adding up in the levels the steps are measured between).
+fn steps_from_slave(rec: &Recording, cfg: &CalibConfig) -> Result<StepSearch, String> {
+    let slave = SlaveAngles::new(rec);
+    let (tau, mounting) = slave_alignment(rec, cfg)?;
+    let first = find_steps_with_slave(&rec.master, &slave, mounting, tau)?;
+    let configured = cfg.master_clock_offset_s.is_some() && cfg.mounting_estimate_rad.is_some();
+    if first.steps.is_empty() || configured {
+        return Ok(first);
+    }
+    let mut without = cfg.clone();
+    without.master_attitude_steps = Some(first.steps.iter().map(FoundStep::as_config).collect());
+    let (tau, mounting) = slave_alignment(without_steps(rec, &without).as_ref(), cfg)?;
+    find_steps_with_slave(&rec.master, &slave, mounting, tau)
+}
+
+/// The clock offset (s) and the mounting (rad) the slave's gyro is compared with:
+/// configured, else found on `rec`.
+fn slave_alignment(rec: &Recording, cfg: &CalibConfig) -> Result<(f64, [f64; 3]), String> {
+    let from = rec.master.first().map_or(0.0, |m| m.t);
+    let tau = match cfg.master_clock_offset_s {
+        Some(v) => v,
+        None => clock_offset(rec, CLOCK_SEARCH_S, from, from + CLOCK_WINDOW_S)
+            .map(|c| c.offset_s)
+            .map_err(|e| {
+                format!("the master gives no rate and the clocks are not aligned, so its attitude steps are not searched: {e}")
+            })?,
+    };
+    let mounting = match cfg.mounting_estimate_rad {
+        Some(m) => m,
+        None => coarse_mounting_after_clock(rec, MOUNTING_WINDOW_S, tau)
+            .map(|m| m.rotation_vector_rad)
+            .map_err(|e| {
+                format!("the master gives no rate and the mounting is not found, so its attitude steps are not searched: {e}")
+            })?,
+    };
+    Ok((tau, mounting))
+}
+
+/// `rec` with the master's attitude steps in `cfg` taken out (a copy, only when there
+/// are any).
+fn without_steps<'a>(rec: &'a Recording, cfg: &CalibConfig) -> std::borrow::Cow<'a, Recording> {
+    match cfg.master_attitude_steps.as_deref() {
+        Some(steps) if !steps.is_empty() => {
+            let c = StepCorrection::new(steps);
+            let mut r = rec.clone();
+            r.master = rec.master.iter().map(|m| c.apply(m.clone())).collect();
+            std::borrow::Cow::Owned(r)
+        }
+        _ => std::borrow::Cow::Borrowed(rec),
+    }
+}
+
+/// The steps before the filter on the whole recording `rec`: the master's attitude
+/// steps, the clocks, and the mounting when the model is to be learned (`learning`),
+/// none is configured and the clocks were moved or steps taken out (the learner's own
+/// would read the master with its steps). Writes the steps, the clock shift (and that
+/// mounting) into `cfg`.
 pub fn prepare(rec: &Recording, cfg: &mut CalibConfig, learning: bool) -> PreFilter {
+    let steps = steps_step(
+        rec.master.iter().cloned().map(Ok),
+        rec.master_has_rate(),
+        rec,
+        cfg,
+    );
+    prepare_after_steps(rec, cfg, learning, steps)
+}
+
+/// [`prepare`] once the steps are known (`steps`, already in `cfg`): `rec` may then be a
+/// window of the recording, the steps searched on the whole of it.
+pub fn prepare_after_steps(
+    rec: &Recording,
+    cfg: &mut CalibConfig,
+    learning: bool,
+    steps: StepsSource,
+) -> PreFilter {
+    let rec = without_steps(rec, cfg);
+    let rec = rec.as_ref();
+    let took_out = cfg
+        .master_attitude_steps
+        .as_ref()
+        .is_some_and(|s| !s.is_empty());
     let clock = clock_step(rec, cfg);
     if clock.applied_s != 0.0 {
         cfg.master_clock_offset_s = Some(clock.applied_s);
     }
-    let mounting = (learning && cfg.mounting_estimate_rad.is_none() && clock.applied_s != 0.0)
-        .then(|| {
-            let found = coarse_mounting_after_clock(rec, MOUNTING_WINDOW_S, clock.applied_s);
-            if let Ok(m) = &found {
-                cfg.mounting_estimate_rad = Some(m.rotation_vector_rad);
-            }
-            found
-        });
-    PreFilter { clock, mounting }
+    let mounting =
+        (learning && cfg.mounting_estimate_rad.is_none() && (clock.applied_s != 0.0 || took_out))
+            .then(|| {
+                let found = coarse_mounting_after_clock(rec, MOUNTING_WINDOW_S, clock.applied_s);
+                if let Ok(m) = &found {
+                    cfg.mounting_estimate_rad = Some(m.rotation_vector_rad);
+                }
+                found
+            });
+    PreFilter {
+        steps,
+        clock,
+        mounting,
+    }
+}
+
+/// The master messages of the recording in `dir`, read one at a time (for the step
+/// search over a recording that is streamed).
+pub fn master_messages(
+    dir: &Path,
+) -> Result<impl Iterator<Item = Result<MasterMsg, String>>, String> {
+    let s = open_recording(dir).map_err(|e| e.to_string())?;
+    Ok(s.master.map(|m| m.map_err(|e| e.to_string())))
 }
 
 /// A master delay found before the filter and within the engine's reach, for the
@@ -178,7 +320,8 @@ impl PreFilter {
             1e3 * c.reach_s[0],
             1e3 * c.reach_s[1]
         );
-        let mut out = vec![match &c.source {
+        let mut out = self.step_lines();
+        out.push(match &c.source {
             ClockSource::Configured => format!(
                 "clock: the configuration moves the master's time tags by {:+.4} s (master_clock_offset_s)",
                 -c.applied_s
@@ -194,7 +337,7 @@ impl PreFilter {
             ClockSource::Searched(Err(e)) => {
                 format!("clock: not aligned before the filter, the tags are used as recorded: {e}")
             }
-        }];
+        });
         match &self.mounting {
             Some(Ok(m)) => {
                 let d = m.rotation_vector_rad.map(f64::to_degrees);
@@ -209,6 +352,54 @@ impl PreFilter {
             None => {}
         }
         out
+    }
+
+    /// The lines about the master's attitude steps: one, then one per step found.
+    fn step_lines(&self) -> Vec<String> {
+        const AXES: [&str; 3] = ["east", "north", "up"];
+        match &self.steps {
+            StepsSource::Configured(n) => vec![format!(
+                "master attitude steps: {n} taken out as configured (master_attitude_steps), none searched"
+            )],
+            StepsSource::Searched(Err(e)) => vec![format!("master attitude steps: {e}")],
+            StepsSource::Searched(Ok(f)) => {
+                let noise = f.noise_rad.map(f64::to_degrees);
+                let thr = f.threshold_rad.map(f64::to_degrees);
+                let mut out = vec![format!(
+                    "master attitude steps: {} found in {} intervals ({:.1}–{:.1} s) and taken out before the filter (the attitude the {} does not explain; residual σ E/N/U [{:.4}, {:.4}, {:.4}]°, threshold [{:.3}, {:.3}, {:.3}]°{})",
+                    f.steps.len(),
+                    f.intervals,
+                    f.span_s[0],
+                    f.span_s[1],
+                    if f.source == "master rate" { "master's own rate" } else { "slave's gyro (rotated by the mounting)" },
+                    noise[0],
+                    noise[1],
+                    noise[2],
+                    thr[0],
+                    thr[1],
+                    thr[2],
+                    if f.untested_gaps > 0 {
+                        format!("; {} gaps not tested", f.untested_gaps)
+                    } else {
+                        String::new()
+                    }
+                )];
+                for s in &f.steps {
+                    let r = s.rotation_rad.map(f64::to_degrees);
+                    let axes: Vec<&str> = s.axes.iter().filter_map(|&k| AXES.get(k).copied()).collect();
+                    out.push(format!(
+                        "  step at t = {:.3} s: {:.3}° [{:+.3}, {:+.3}, {:+.3}]° ENU, attitude channel {}",
+                        s.t_s,
+                        s.size_deg,
+                        r[0],
+                        r[1],
+                        r[2],
+                        axes.join(", ")
+                    ));
+                }
+                out
+            }
+        }
     }
 
     /// The `pre_filter` object of `summary.json`.
@@ -235,6 +426,11 @@ impl PreFilter {
             Some(Err(e)) => json!({"refused": e}),
             None => Value::Null,
         };
-        json!({"clock": clock, "mounting": mounting})
+        let steps = match &self.steps {
+            StepsSource::Configured(n) => json!({"source": "configuration", "taken_out": n}),
+            StepsSource::Searched(Ok(f)) => json!({"source": f.source, "found": f}),
+            StepsSource::Searched(Err(e)) => json!({"refused": e}),
+        };
+        json!({"master_attitude_steps": steps, "clock": clock, "mounting": mounting})
     }
 }

@@ -3,6 +3,7 @@
 //! its time of validity), and gathers estimates, innovations and covariance checks.
 
 use super::config::CalibConfig;
+use super::master_steps::StepCorrection;
 use super::mounting::within_half_turn;
 use super::residuals::InnovationSummary;
 use crate::recording::{ImuSample, MasterMsg, Recording};
@@ -403,10 +404,14 @@ fn run_generic<T: Real, const S: usize>(
     // The clock alignment found before the filter (or configured): the master's tags
     // moved onto the slave's time base.
     let shift = cfg.master_clock_offset_s.unwrap_or(0.0);
+    // The master's attitude steps found before the filter (or configured), undone on
+    // the master's own tags, before the shift.
+    let steps = StepCorrection::new(cfg.master_attitude_steps.as_deref().unwrap_or(&[]));
     let mut masters = src
         .master
         .map(|m| {
-            m.map(|mut m| {
+            m.map(|m| {
+                let mut m = steps.apply(m);
                 m.t -= shift;
                 m
             })

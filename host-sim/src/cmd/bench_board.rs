@@ -95,6 +95,7 @@ pub fn run(a: &Args) -> Result<(), String> {
             drawn: None,
             clock_offset: None,
             mounting_deg: None,
+            master_steps: Default::default(),
         })?;
     }
     println!(

@@ -346,7 +346,19 @@ pub fn calibrate(
             progress.phase("aligning the clocks");
             prefilter::read_window(dir, CLOCK_WINDOW_S + CLOCK_SEARCH_S + 1.0)?
         };
-        let pre_filter = pre_filter(&window, &mut cfg, false);
+        progress.phase("searching the master's attitude for steps");
+        // Against the master's rate over all its messages; without one, against the
+        // slave's gyro over the window.
+        let steps = prefilter::steps_step(
+            prefilter::master_messages(dir)?,
+            stream.master.has_rate(),
+            &window,
+            &mut cfg,
+        );
+        let pre_filter = prefilter::prepare_after_steps(&window, &mut cfg, false, steps);
+        for l in pre_filter.lines() {
+            eprintln!("flexcal: {l}");
+        }
         eprintln!("flexcal: flexure model: configured");
         Prepared {
             cfg,

@@ -89,6 +89,10 @@ pub struct ModelArgs {
     /// configuration's `effects`.
     #[arg(long, value_delimiter = ',')]
     pub effects: Vec<String>,
+    /// Hand the filter the master's attitude as recorded: no step searched or taken
+    /// out before the filter (`master_attitude_steps = []`; `calib::master_steps`).
+    #[arg(long)]
+    pub keep_master_steps: bool,
 }
 
 impl ModelArgs {
@@ -101,6 +105,9 @@ impl ModelArgs {
             cfg.identify_flexure = true;
         }
         cfg.effects.extend(self.effects.iter().cloned());
+        if self.keep_master_steps {
+            cfg.master_attitude_steps = Some(Vec::new());
+        }
         cfg.augmentation::<f64>().map(|_| ())
     }
 }

@@ -18,6 +18,7 @@
 //! every frame sent is counted as received).
 
 use crate::calib::config::CalibConfig;
+use crate::calib::master_steps::StepCorrection;
 use crate::calib::run::{CalibResult, CovarianceCheck, EffectRow, EstimateRow, Precision};
 use crate::cmd::calibrate::prepare_config;
 use crate::cmd::common::ModelArgs;
@@ -101,7 +102,10 @@ pub fn stream_messages(
     // The clock alignment found before the filter, as `calibrate` applies it: the
     // board receives the master's tags on the slave's time base.
     let shift = cfg.master_clock_offset_s.unwrap_or(0.0);
-    let mut masters = rec.master.iter().peekable();
+    // The master's attitude steps taken out as `calibrate` does (`calib::master_steps`).
+    let steps = StepCorrection::new(cfg.master_attitude_steps.as_deref().unwrap_or(&[]));
+    let corrected: Vec<_> = rec.master.iter().map(|m| steps.apply(m.clone())).collect();
+    let mut masters = corrected.iter().peekable();
     let mut last_t = rec.imu_t0;
     for s in &rec.imu {
         out.push(Message::ImuSample(ImuSampleMsg {

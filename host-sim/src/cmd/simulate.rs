@@ -6,6 +6,7 @@
 use crate::calib::config::CalibConfig;
 use crate::cmd::common::ScenarioArgs;
 use crate::recording::write_recording;
+use crate::sim::master_steps::{draw_steps, StepTimes};
 use crate::sim::simulate;
 use std::path::PathBuf;
 
@@ -32,9 +33,34 @@ pub struct Args {
     /// degrees): overrides the scenario's `misalignment_deg` (a blind draw's too).
     #[arg(long, value_delimiter = ',', num_args = 1, allow_hyphen_values = true)]
     pub mounting_deg: Option<Vec<f64>>,
+    /// A master whose attitude steps at its corrections.
+    #[command(flatten)]
+    pub master_steps: MasterStepArgs,
 }
 
-/// The scenario with the command line's overrides (clock offset, mounting), checked.
+/// The options of a master that corrects its attitude in steps.
+#[derive(clap::Args, Default)]
+pub struct MasterStepArgs {
+    /// A master that corrects its attitude in steps (a consumer-grade filter): each
+    /// step a rotation of this many degrees about an axis drawn from the seed, at
+    /// `--master-step-times` or at drawn times (`--master-step-every`). Injected as
+    /// `undeclared.master_attitude_steps` (a blind draw's drawn file lists every step).
+    #[arg(long)]
+    pub master_step_deg: Option<f64>,
+    /// The steps' times on the master's tags (s, comma separated).
+    #[arg(long, value_delimiter = ',', requires = "master_step_deg")]
+    pub master_step_times: Option<Vec<f64>>,
+    /// Mean interval between drawn steps (s; each interval uniform in 0.5–1.5× it).
+    #[arg(long, requires = "master_step_deg", default_value_t = 30.0)]
+    pub master_step_every: f64,
+    /// The master's attitude error between the steps turns at this rate about an axis
+    /// drawn per interval (deg/s).
+    #[arg(long, requires = "master_step_deg", default_value_t = 0.0)]
+    pub master_drift_deg_s: f64,
+}
+
+/// The scenario with the command line's overrides (clock offset, mounting, master
+/// steps), checked.
 fn with_overrides(mut sc: crate::sim::Scenario, a: &Args) -> Result<crate::sim::Scenario, String> {
     if let Some(tau) = a.clock_offset {
         sc.undeclared.master_delay_s = tau;
@@ -47,6 +73,22 @@ fn with_overrides(mut sc: crate::sim::Scenario, a: &Args) -> Result<crate::sim::
             ));
         };
         sc.misalignment_deg = [x, y, z];
+    }
+    let st = &a.master_steps;
+    if let Some(size) = st.master_step_deg {
+        let times = match &st.master_step_times {
+            Some(t) => StepTimes::Stated(t.clone()),
+            None => StepTimes::Drawn {
+                mean_interval_s: st.master_step_every,
+            },
+        };
+        sc.undeclared.master_attitude_steps = Some(draw_steps(
+            a.scenario.seed,
+            sc.duration_s,
+            size,
+            &times,
+            st.master_drift_deg_s,
+        )?);
     }
     sc.validate()?;
     Ok(sc)
@@ -104,5 +146,13 @@ pub fn run(a: &Args) -> Result<(), String> {
         out.recording.master.len(),
         a.out.display()
     );
+    if let Some(st) = &sc.undeclared.master_attitude_steps {
+        let times: Vec<String> = st.steps.iter().map(|s| format!("{:.1}", s.t_s)).collect();
+        println!(
+            "  master attitude: {} steps at [{}] s (each listed in the scenario's undeclared.master_attitude_steps)",
+            st.steps.len(),
+            times.join(", ")
+        );
+    }
     Ok(())
 }

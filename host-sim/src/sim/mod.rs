@@ -7,12 +7,15 @@
 //! real IMU would: the angular-rate and specific-force integrals, not samples.
 //!
 //! Effects the filter's model does not declare (scale factors, non-orthogonality,
-//! g-sensitivity, master delay, lever-arm error, master velocity wave) are injected
+//! g-sensitivity, master delay, lever-arm error, master velocity wave, a master
+//! attitude that steps at its corrections) are injected
 //! here when the scenario asks for them, and their values are written to `truth.csv`
-//! as constant columns, so a diagnosis can be scored against them.
+//! as constant columns, so a diagnosis can be scored against them (the master's steps,
+//! which are not constant, are in the scenario itself: `sim::master_steps`).
 
 pub mod blind;
 pub mod flexure;
+pub mod master_steps;
 pub mod motion;
 pub mod scenario;
 
@@ -24,7 +27,10 @@ use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
-pub use scenario::{Bending, FlexureSpec, Scenario, SmoothError, Undeclared, VelocityWave};
+pub use scenario::{
+    AttitudeStep, AttitudeSteps, Bending, FlexureSpec, Scenario, SmoothError, Undeclared,
+    VelocityWave,
+};
 use std::f64::consts::PI;
 
 /// Fine sub-steps per IMU interval for the truth integrals.
@@ -272,6 +278,10 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
         .smooth_error
         .as_ref()
         .map(|e| SmoothMasterError::new(e, 1.0 / sc.master.rate_hz, seed));
+    let steps = und
+        .master_attitude_steps
+        .as_ref()
+        .map(master_steps::StepError::new);
     // The message stamped `t`, from the master's truth at `t − τ` (`pos_t`: at `t`).
     let mut emit_master = |t: f64,
                            pos_t: &Position<f64>,
@@ -290,6 +300,9 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
             let (att_n, vel_n) = s.next();
             q = quat_exp(&att_n) * q;
             v += vel_n;
+        }
+        if let Some(e) = &steps {
+            q = e.at(t) * q;
         }
         if let Some(wave) = &und.master_velocity_wave {
             v += Vector3::from(wave.amplitude_mps) * (2.0 * PI * t / wave.period_s).sin();

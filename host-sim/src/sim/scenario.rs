@@ -225,6 +225,67 @@ pub struct Undeclared {
     pub lever_arm_error_m: [f64; 3],
     /// A sinusoid added to the master's output velocity, if any.
     pub master_velocity_wave: Option<VelocityWave>,
+    /// The attitude error of a master that is itself a consumer-grade filter: a drift
+    /// between its corrections and a step at each correction, if any.
+    pub master_attitude_steps: Option<AttitudeSteps>,
+}
+
+/// The output attitude error `E(t)` of a master that corrects itself in steps (a
+/// consumer-grade attitude filter): a rotation of the navigation frame (ENU) applied on
+/// the left of every message's attitude, `q_rep = E(t) q_true`. It starts at zero,
+/// turns at `initial_drift_deg_s` until the first step, and at each step's time `t_s`
+/// (the master's time tags: every message stamped `t ≥ t_s` has it) jumps by the
+/// step's rotation, `E(t_s+) = Exp(rotation) E(t_s−)`, then turns at that step's drift
+/// rate: `E(t) = Exp(d_k (t − t_k)) E(t_k+)`. The drift accumulates across the steps.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct AttitudeSteps {
+    /// Rate of the error before the first step (deg/s, rotation vector rate, ENU).
+    pub initial_drift_deg_s: [f64; 3],
+    /// The steps in time order.
+    pub steps: Vec<AttitudeStep>,
+}
+
+/// One correction of a consumer-grade master (`AttitudeSteps`).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct AttitudeStep {
+    /// Time of the step on the master's time tags (s).
+    pub t_s: f64,
+    /// The jump of the output attitude, a rotation vector in ENU (deg).
+    pub rotation_deg: [f64; 3],
+    /// The error's rate after it, until the next step (deg/s, ENU).
+    pub drift_deg_s: [f64; 3],
+}
+
+impl AttitudeSteps {
+    /// Checks values a simulation cannot run with; errors name the key and the step.
+    fn validate(&self) -> Result<(), String> {
+        let finite = |v: &[f64; 3]| v.iter().all(|x| x.is_finite());
+        if !finite(&self.initial_drift_deg_s) {
+            return Err(format!(
+                "`undeclared.master_attitude_steps.initial_drift_deg_s` must be finite numbers, got {:?}",
+                self.initial_drift_deg_s
+            ));
+        }
+        let mut before = f64::NEG_INFINITY;
+        for (k, s) in self.steps.iter().enumerate() {
+            if !(s.t_s.is_finite() && s.t_s > before) {
+                return Err(format!(
+                    "`undeclared.master_attitude_steps.steps[{k}].t_s` must be a finite time after the step before, got {}",
+                    s.t_s
+                ));
+            }
+            if !(finite(&s.rotation_deg) && finite(&s.drift_deg_s)) {
+                return Err(format!(
+                    "`undeclared.master_attitude_steps.steps[{k}]`: rotation and drift must be finite numbers, got {:?} and {:?}",
+                    s.rotation_deg, s.drift_deg_s
+                ));
+            }
+            before = s.t_s;
+        }
+        Ok(())
+    }
 }
 
 /// A sinusoidal error of the master's output velocity: the message stamped `t` gets
@@ -339,6 +400,9 @@ impl Undeclared {
             return Err(format!(
                 "`undeclared.lever_arm_error_m` must be finite numbers, got {v}"
             ));
+        }
+        if let Some(st) = &self.master_attitude_steps {
+            st.validate()?;
         }
         if let Some(wave) = &self.master_velocity_wave {
             let period = wave.period_s;
