@@ -217,9 +217,10 @@ pub fn diagnosis_json(d: &Diagnosis, rec_label: &str, rec: &Recording, command: 
 }
 
 /// The configuration keys the diagnosis changed or the steps before the filter found:
-/// what a user's configuration needs to reproduce the final model. The clock shift and
-/// the mounting are there when they were used (absent keys: nothing found), so a run
-/// with the recommended keys starts where the diagnosis did.
+/// what a user's configuration needs to reproduce the final model. The clock shift, the
+/// mounting and the master's attitude steps taken out are there when they were used
+/// (absent keys: nothing found), so a run with the recommended keys starts where the
+/// diagnosis did.
 fn recommended_config(cfg: &crate::calib::config::CalibConfig) -> Value {
     let mut v = json!({
         "effects": cfg.effects,
@@ -234,6 +235,9 @@ fn recommended_config(cfg: &crate::calib::config::CalibConfig) -> Value {
         }
         if let Some(m) = cfg.mounting_estimate_rad {
             o.insert("mounting_estimate_rad".into(), json!(m));
+        }
+        if let Some(steps) = cfg.master_attitude_steps.as_ref().filter(|s| !s.is_empty()) {
+            o.insert("master_attitude_steps".into(), json!(steps));
         }
     }
     v
@@ -899,14 +903,20 @@ mod tests {
     use crate::calib::config::CalibConfig;
 
     #[test]
-    fn the_recommended_keys_carry_the_clock_shift_and_the_mounting_when_used() {
-        let mut cfg = CalibConfig::default();
+    fn the_recommended_keys_carry_the_clock_shift_the_mounting_and_the_steps_when_used() {
+        let mut cfg = CalibConfig {
+            master_attitude_steps: Some(Vec::new()),
+            ..CalibConfig::default()
+        };
         let none = recommended_config(&cfg);
         assert!(none.get("master_clock_offset_s").is_none());
         assert!(none.get("mounting_estimate_rad").is_none());
+        assert!(none.get("master_attitude_steps").is_none());
         cfg.master_clock_offset_s = Some(-0.4);
         cfg.mounting_estimate_rad = Some([0.0, 0.0, std::f64::consts::FRAC_PI_2]);
+        cfg.master_attitude_steps = Some(vec![[31.5, 0.1, -0.05, 0.02]]);
         let used = recommended_config(&cfg);
+        assert_eq!(used["master_attitude_steps"][0][0], 31.5);
         assert_eq!(used["master_clock_offset_s"], -0.4);
         assert_eq!(
             used["mounting_estimate_rad"][2],
