@@ -24,9 +24,9 @@
 
 use super::clock::SlaveAngles;
 use crate::recording::MasterMsg;
-use flexcal_core::earth::{self, Position};
+use crate::verdict::input::median;
 use flexcal_core::rotation::{quat_exp, quat_log};
-use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use nalgebra::{UnitQuaternion, Vector3};
 use serde::Serialize;
 
 /// How many robust standard deviations of its axis a residual must exceed to be a step.
@@ -84,33 +84,11 @@ pub struct StepSearch {
     pub steps: Vec<FoundStep>,
 }
 
-fn quat(m: &MasterMsg) -> UnitQuaternion<f64> {
-    let q = m.q_bm_n;
-    UnitQuaternion::new_normalize(Quaternion::new(q[0], q[1], q[2], q[3]))
-}
-
 /// The master's body rate relative to the navigation frame, `ω_nb^bm` (rad/s), from
 /// its inertial rate: `None` when the message carries no rate.
 fn rate_nb(m: &MasterMsg, q: &UnitQuaternion<f64>) -> Option<Vector3<f64>> {
     let w_ib = Vector3::from(m.omega_ib_bm_radps?);
-    let pos = Position {
-        lat_rad: m.lat_deg.to_radians(),
-        lon_rad: m.lon_deg.to_radians(),
-        height_m: m.height_m,
-    };
-    let w_in =
-        earth::earth_rate_n(pos.lat_rad) + earth::transport_rate_n(&pos, &Vector3::from(m.v_n_mps));
-    Some(w_ib - q.inverse_transform_vector(&w_in))
-}
-
-/// The median of `v` (reordered); 0 when empty.
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    match v.len() {
-        0 => 0.0,
-        n if n % 2 == 1 => v[n / 2],
-        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
-    }
+    Some(w_ib - q.inverse_transform_vector(&m.nav_frame_rate_n()))
 }
 
 /// One tested interval: the later message's time, the earlier one's, the residual
@@ -220,15 +198,8 @@ pub fn find_steps_with_slave(
             let Some(phi_s) = slave.rotation(a.t - clock_offset_s, b.t - clock_offset_s) else {
                 return Ok(None);
             };
-            let pos = Position {
-                lat_rad: a.lat_deg.to_radians(),
-                lon_rad: a.lon_deg.to_radians(),
-                height_m: a.height_m,
-            };
-            let w_in = earth::earth_rate_n(pos.lat_rad)
-                + earth::transport_rate_n(&pos, &Vector3::from(a.v_n_mps));
             Ok(Some(
-                c * phi_s - qa.inverse_transform_vector(&w_in) * (b.t - a.t),
+                c * phi_s - qa.inverse_transform_vector(&a.nav_frame_rate_n()) * (b.t - a.t),
             ))
         },
     )
@@ -258,7 +229,7 @@ fn search(
     let mut prev: Option<(MasterMsg, UnitQuaternion<f64>)> = None;
     for m in master {
         let m = m?;
-        let q = quat(&m);
+        let q = m.attitude();
         if let Some((a, qa)) = &prev {
             let dt = m.t - a.t;
             match predict(a, &m, qa, &q)? {
@@ -278,7 +249,7 @@ fn search(
         }
         prev = Some((m, q));
     }
-    let dt_median = median(&mut dts);
+    let dt_median = median(dts);
     if all.len() < 20 || dt_median <= 0.0 {
         return Err(format!(
             "{} master messages are too few to search their attitude for steps",
@@ -300,10 +271,8 @@ fn search(
     let mut centre = [0.0; 3];
     let mut noise_rad = [0.0; 3];
     for k in 0..3 {
-        let mut a: Vec<f64> = vecs.iter().map(|v| v[k]).collect();
-        centre[k] = median(&mut a);
-        let mut dev: Vec<f64> = vecs.iter().map(|v| (v[k] - centre[k]).abs()).collect();
-        noise_rad[k] = 1.4826 * median(&mut dev);
+        centre[k] = median(vecs.iter().map(|v| v[k]).collect());
+        noise_rad[k] = 1.4826 * median(vecs.iter().map(|v| (v[k] - centre[k]).abs()).collect());
     }
     let threshold_rad = noise_rad.map(|s| (STEP_SIGMAS * s).max(STEP_FLOOR_RAD));
     let flagged: Vec<Vec<usize>> = vecs
@@ -387,7 +356,7 @@ impl StepCorrection {
     pub fn apply(&self, mut m: MasterMsg) -> MasterMsg {
         let k = self.undo.partition_point(|(t, _)| *t <= m.t);
         if let Some((_, u)) = k.checked_sub(1).and_then(|i| self.undo.get(i)) {
-            let q = u * quat(&m);
+            let q = u * m.attitude();
             m.q_bm_n = [q.w, q.i, q.j, q.k];
         }
         m
@@ -405,6 +374,7 @@ impl FoundStep {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use flexcal_core::earth;
 
     /// A master turning about a tilted axis at a varying rate, with steps.
     fn master(steps: &[(f64, [f64; 3])]) -> Vec<MasterMsg> {
@@ -473,7 +443,7 @@ mod tests {
             .collect();
         let c = StepCorrection::new(&found);
         for (a, b) in with.iter().zip(&without) {
-            let d = quat(&c.apply(a.clone())).angle_to(&quat(b));
+            let d = c.apply(a.clone()).attitude().angle_to(&b.attitude());
             assert!(d < 2e-4, "t = {}: {d} rad off", a.t);
         }
     }

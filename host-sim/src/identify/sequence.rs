@@ -26,9 +26,8 @@
 //! integrated sequence restarts (and is detrended) separately on each side of a gap.
 
 use crate::recording::Recording;
-use flexcal_core::earth::{self, Position};
 use flexcal_core::rotation::{dcm, exp_so3, log_so3};
-use nalgebra::{Matrix4, UnitQuaternion, Vector3, Vector4};
+use nalgebra::{Matrix4, Vector3, Vector4};
 
 /// Which sequence to identify from a recording.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -203,19 +202,8 @@ fn master_mean_rates(rec: &Recording, g: &Grid) -> (Vec<Vector3<f64>>, &'static 
             } else {
                 // Rotation of the master body relative to inertial space over the interval:
                 // C_bm^i(j−1)ᵀ C_bm^i(j) = C_bm^n(j−1)ᵀ Exp(ω_in^n dt) C_bm^n(j).
-                let q = |m: &crate::recording::MasterMsg| {
-                    let [w, x, y, z] = m.q_bm_n;
-                    dcm(&UnitQuaternion::new_normalize(nalgebra::Quaternion::new(
-                        w, x, y, z,
-                    )))
-                };
-                let pos = Position {
-                    lat_rad: m0.lat_deg.to_radians(),
-                    lon_rad: m0.lon_deg.to_radians(),
-                    height_m: m0.height_m,
-                };
-                let v = Vector3::from(m0.v_n_mps);
-                let w_in = earth::earth_rate_n(pos.lat_rad) + earth::transport_rate_n(&pos, &v);
+                let q = |m: &crate::recording::MasterMsg| dcm(&m.attitude());
+                let w_in = m0.nav_frame_rate_n();
                 let rel = q(m0).transpose() * exp_so3(&(w_in * dt)) * q(m1);
                 log_so3(&rel) / dt
             };

@@ -188,8 +188,9 @@ pub fn learn(
             // against it. Where the increments' band fits white plus red, their floor
             // is the angle random walk and stays: searched there too (blind Monte Carlo,
             // 50 × 600 s) the likelihood took it 3–8× below the draw on five seeds whose
-            // matching noise sat at its floor, and the mean NEES from 10.89 to 11.23. On the measured vehicle recording the floor (0.98 °/√h)
-            // held the attitude NIS at 0.10–0.28 (`docs/model-learning.md`, session 7).
+            // matching noise sat at its floor, and the mean NEES from 10.89 to 11.23. On
+            // the measured vehicle recording the bound (0.98 °/√h) held the attitude NIS
+            // at 0.10–0.28 (`docs/model-learning.md`, session 7).
             if let Some(bound) = inc
                 .as_ref()
                 .filter(|i| i.gyro_arw_is_upper_bound())

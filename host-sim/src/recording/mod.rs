@@ -115,6 +115,27 @@ pub struct MasterMsg {
     pub omega_ib_bm_radps: Option<[f64; 3]>,
 }
 
+impl MasterMsg {
+    /// The attitude `q_bm^n`, normalized.
+    pub fn attitude(&self) -> nalgebra::UnitQuaternion<f64> {
+        let [w, x, y, z] = self.q_bm_n;
+        nalgebra::UnitQuaternion::new_normalize(nalgebra::Quaternion::new(w, x, y, z))
+    }
+
+    /// The navigation frame's rate `ω_in^n = ω_ie^n + ω_en^n` (rad/s, ENU) at the
+    /// message's position and velocity.
+    pub fn nav_frame_rate_n(&self) -> nalgebra::Vector3<f64> {
+        use flexcal_core::earth::{self, Position};
+        let pos = Position {
+            lat_rad: self.lat_deg.to_radians(),
+            lon_rad: self.lon_deg.to_radians(),
+            height_m: self.height_m,
+        };
+        earth::earth_rate_n(pos.lat_rad)
+            + earth::transport_rate_n(&pos, &nalgebra::Vector3::from(self.v_n_mps))
+    }
+}
+
 /// Contents of `truth.csv`: the time column and every other column by name,
 /// in file order, including columns this code does not know.
 #[derive(Debug, Clone, PartialEq)]
@@ -188,12 +209,7 @@ impl Recording {
     /// frame at `a`, from its attitudes at the messages at or just after `a` and `b`.
     pub fn master_rotation(&self, a: f64, b: f64) -> Option<nalgebra::Vector3<f64>> {
         let (i, j) = (self.master_index(a)?, self.master_index(b)?);
-        let q = |k: usize| {
-            let q = self.master.get(k)?.q_bm_n;
-            Some(nalgebra::UnitQuaternion::new_normalize(
-                nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]),
-            ))
-        };
+        let q = |k: usize| Some(self.master.get(k)?.attitude());
         (j > i)
             .then(|| Some((q(i)?.inverse() * q(j)?).scaled_axis()))
             .flatten()
