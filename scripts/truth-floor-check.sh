@@ -1,0 +1,52 @@
+#!/usr/bin/env bash
+# Does the filter stay consistent when it is handed its data's truth (issue 9, acceptance 1)?
+# For each blind seed: simulate the draw, write its truth model (the drawn scenario run
+# again writes calibrate.toml; the drawn misalignment is appended as the mounting), then
+# calibrate with that truth model twice: with the matching noise floors as written
+# (velocity 1 mm/s, attitude 2 µrad where the draw has none) and with floors at the board's
+# f32 resolution (1e-5 m/s, 1e-7 rad). Prints one markdown row per seed and floor: the
+# master's drawn kind, NEES of the nine calibrated states, the mean NIS per channel axis.
+# The filter is handed the truth here on purpose: the check is of the filter's own
+# model, not of the learner.
+#
+#   scripts/truth-floor-check.sh OUT_DIR DURATION_S SEED...
+#
+# Uses target/release/flexcal (build it first: cargo build --release -p flexcal-sim)
+# unless FLEXCAL names another; python3 reads the JSON.
+set -euo pipefail
+out="${1:?OUT_DIR}"
+dur="${2:?DURATION_S}"
+shift 2
+F="${FLEXCAL:-target/release/flexcal}"
+mkdir -p "$out"
+echo "| seed | master | floors | NEES | NIS velocity E, N, U | NIS attitude x, y, z | NIS rate x, y, z |"
+echo "|---|---|---|---|---|---|---|"
+for s in "$@"; do
+  "$F" simulate --blind --seed "$s" --duration "$dur" --out "$out/b$s" > /dev/null
+  "$F" simulate --scenario "$out/b$s.drawn.toml" --seed "$s" --out "$out/t$s" > /dev/null
+  python3 - "$out/b$s.drawn.toml" "$out/t$s/calibrate.toml" > "$out/t$s-truth.toml" <<'PY'
+import math, sys, tomllib
+drawn = tomllib.load(open(sys.argv[1], 'rb'))
+print(open(sys.argv[2]).read().rstrip())
+mu = [math.radians(x) for x in drawn['misalignment_deg']]
+print('mounting_estimate_rad = [%s]' % ', '.join(repr(x) for x in mu))
+PY
+  sed -e 's/^velocity_noise_mps = \[0.001, 0.001, 0.001\]/velocity_noise_mps = [0.00001, 0.00001, 0.00001]/' \
+      -e 's/^attitude_noise_rad = \[0.000002, 0.000002, 0.000002\]/attitude_noise_rad = [0.0000001, 0.0000001, 0.0000001]/' \
+      "$out/t$s-truth.toml" > "$out/t$s-truth-f32.toml"
+  for floors in truth truth-f32; do
+    "$F" calibrate "$out/t$s" --config "$out/t$s-$floors.toml" --out "$out/c$s-$floors" > /dev/null 2>&1 || true
+    python3 - "$s" "$floors" "$out/b$s.drawn.toml" "$out/c$s-$floors/summary.json" <<'PY'
+import json, sys, tomllib
+seed, floors, drawn_path, summary = sys.argv[1:5]
+m = tomllib.load(open(drawn_path, 'rb'))['master']
+kind = 'smooth' if 'smooth_error' in m else ('white' if m.get('velocity_noise_mps', 0) > 0 else 'none')
+d = json.load(open(summary))
+nis = {(r['channel'], r['axis']): r['nis_mean'] for r in d['residuals']}
+def row(ch):
+    return ', '.join(f"{nis[(ch, a)]:.2f}" if (ch, a) in nis else '–' for a in range(3))
+label = 'as written' if floors == 'truth' else 'f32 resolution'
+print(f"| {seed} | {kind} | {label} | {d['errors']['nees_mean']:.1f} | {row('velocity')} | {row('attitude')} | {row('angular_rate')} |")
+PY
+  done
+done
