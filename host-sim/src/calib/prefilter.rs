@@ -20,7 +20,7 @@ use super::clock::SlaveAngles;
 use super::clock::{clock_offset, ClockOffset, ClockRefusal};
 use super::config::CalibConfig;
 use super::master_steps::{
-    find_steps, find_steps_with_slave, FoundStep, StepCorrection, StepSearch,
+    find_steps, find_steps_with_slave, without_steps, FoundStep, StepSearch,
 };
 use super::mounting::{coarse_mounting_after_clock, CoarseMounting};
 use crate::recording::{open_recording, MasterMsg, Recording};
@@ -156,7 +156,10 @@ fn steps_from_slave(rec: &Recording, cfg: &CalibConfig) -> Result<StepSearch, St
     }
     let mut without = cfg.clone();
     without.master_attitude_steps = Some(first.steps.iter().map(FoundStep::as_config).collect());
-    let (tau, mounting) = slave_alignment(without_steps(rec, &without).as_ref(), cfg)?;
+    let (tau, mounting) = slave_alignment(
+        without_steps(rec, without.master_attitude_steps.as_deref()).as_ref(),
+        cfg,
+    )?;
     find_steps_with_slave(&rec.master, &slave, mounting, tau)
 }
 
@@ -183,20 +186,6 @@ fn slave_alignment(rec: &Recording, cfg: &CalibConfig) -> Result<(f64, [f64; 3])
     Ok((tau, mounting))
 }
 
-/// `rec` with the master's attitude steps in `cfg` taken out (a copy, only when there
-/// are any).
-fn without_steps<'a>(rec: &'a Recording, cfg: &CalibConfig) -> std::borrow::Cow<'a, Recording> {
-    match cfg.master_attitude_steps.as_deref() {
-        Some(steps) if !steps.is_empty() => {
-            let c = StepCorrection::new(steps);
-            let mut r = rec.clone();
-            r.master = rec.master.iter().map(|m| c.apply(m.clone())).collect();
-            std::borrow::Cow::Owned(r)
-        }
-        _ => std::borrow::Cow::Borrowed(rec),
-    }
-}
-
 /// The steps before the filter on the whole recording `rec`: the master's attitude
 /// steps, the clocks, and the mounting when none is configured ([`mounting_step`]).
 /// Writes the steps, the clock shift (and that mounting) into `cfg`.
@@ -218,7 +207,7 @@ pub fn prepare_after_steps(
     learning: bool,
     steps: StepsSource,
 ) -> PreFilter {
-    let rec = without_steps(rec, cfg);
+    let rec = without_steps(rec, cfg.master_attitude_steps.as_deref());
     let rec = rec.as_ref();
     let took_out = cfg
         .master_attitude_steps
