@@ -61,7 +61,7 @@ case_rows() {
 echo "| recording, start | mounting truth (°) | mounting found before the filter: error (°) | misalignment after (°) | max \|error\|/σ, 9 states | NEES (9) | NIS |"
 echo "|---|---|---|---|---|---|---|"
 case_rows "moored" 0.5,-0.3,1.0 --scenario moored
-for m in 0,0,2 30,0,0 0,90,0 0,0,180; do
+for m in 0,0,2 30,0,0 0,90,0 180,0,0 0,180,0 0,0,180; do
   case_rows "moored" "$m" --scenario moored --mounting-deg "$m"
 done
 "$F" simulate --blind --seed 104 --duration 120 --out "$out/b104" > /dev/null
