@@ -232,9 +232,9 @@ pub fn prepare_after_steps(
 /// it itself on the recording as it is, the same data. A declared configuration takes
 /// it always: its misalignment σ then describes the error about the mounting found, a
 /// few hundredths to two tenths of a degree, instead of about zero, where a mounting of
-/// a few degrees is left to the filter's linearization (blind seed 104, 2.1° about z,
-/// declared with σ 1°: NEES 74.8 from zero, 8.5 from the mounting found;
-/// `docs/diagnosis.md`).
+/// a few degrees is left to the filter's linearization (blind seed 104's model
+/// declared, 2.1° with σ 1°, 120 s: NEES 303 from zero, 9.7 from the mounting found;
+/// `scripts/declared-mounting-table.sh`, `docs/diagnosis.md`).
 fn mounting_step(
     rec: &Recording,
     cfg: &mut CalibConfig,
