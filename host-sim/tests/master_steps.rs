@@ -11,9 +11,10 @@ use flexcal_sim::calib::master_steps::StepSearch;
 use flexcal_sim::calib::prefilter::{prepare, StepsSource};
 use flexcal_sim::calib::run::{run, Precision};
 use flexcal_sim::calib::score::score;
-use flexcal_sim::cmd::calibrate::prepare_config;
+use flexcal_sim::cmd::calibrate::{calibrate, prepare_config};
 use flexcal_sim::cmd::common::ModelArgs;
-use flexcal_sim::recording::Recording;
+use flexcal_sim::cmd::progress::Progress;
+use flexcal_sim::recording::{write_recording, Recording};
 use flexcal_sim::sim::master_steps::{draw_steps, StepTimes};
 use flexcal_sim::sim::{blind, simulate, AttitudeSteps, Scenario};
 use nalgebra::Vector3;
@@ -162,5 +163,39 @@ fn without_the_masters_rate_the_slave_gyro_finds_the_steps() {
         assert_eq!(s.expect("searched").source, "slave gyro");
         let found = cfg.master_attitude_steps.unwrap_or_default();
         assert_found(&found, &truth.expect("steps"), 1.0 / sc.master.rate_hz);
+    }
+}
+
+/// The verdict's clock check reads the master as the filter saw it: on blind seed 3
+/// with its 10° steps (one inside a block of the check spoils that block's rotation),
+/// calibrated as `flexcal calibrate` does, the clocks are compared (no
+/// `clock_offset_unchecked`, which it noted when it read the master with its steps in)
+/// and found on time (no `master_time_offset`).
+#[test]
+fn the_verdict_compares_the_clocks_on_the_master_without_its_steps() {
+    let (sc, _) = draw(3, true);
+    let rec = recording(&sc, 3);
+    let dir = tempfile::tempdir().expect("temp dir");
+    write_recording(dir.path(), &rec).expect("written");
+    let c = calibrate(
+        dir.path(),
+        None,
+        &ModelArgs::default(),
+        Precision::F64,
+        &dir.path().join("estimates.csv"),
+        &Progress::start("calibrating"),
+    )
+    .expect("calibrated");
+    assert!(c
+        .prepared
+        .cfg
+        .master_attitude_steps
+        .is_some_and(|s| !s.is_empty()));
+    for code in ["clock_offset_unchecked", "master_time_offset"] {
+        assert!(
+            c.verdict.findings.iter().all(|f| f.code != code),
+            "{code}: {:?}",
+            c.verdict.findings
+        );
     }
 }

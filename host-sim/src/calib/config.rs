@@ -139,8 +139,9 @@ pub struct CalibConfig {
     /// previous estimate, so the delay's linearization holds from the start.
     pub initial_delay_s: f64,
     /// The mounting the filter starts from, `μ̂₀` (rotation vector of `C_bs^bm`, rad):
-    /// its misalignment states are errors about it. Absent: zero. A learned model
-    /// holds the coarse alignment's (`calib::mounting`), found before the filter.
+    /// its misalignment states are errors about it. Absent: found before the filter
+    /// (`calib::mounting`, `calib::prefilter`) for a learned model and a declared
+    /// configuration alike; zero when the motion does not show it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mounting_estimate_rad: Option<[f64; 3]>,
     /// How late the master's time tags are on the slave's (s; negative: early): every

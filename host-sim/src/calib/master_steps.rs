@@ -23,7 +23,7 @@
 //! down-weighting the attitude matching: `docs/diagnosis.md` (the measured table).
 
 use super::clock::SlaveAngles;
-use crate::recording::MasterMsg;
+use crate::recording::{MasterMsg, Recording};
 use crate::verdict::input::median;
 use flexcal_core::rotation::{quat_exp, quat_log};
 use nalgebra::{UnitQuaternion, Vector3};
@@ -360,6 +360,24 @@ impl StepCorrection {
             m.q_bm_n = [q.w, q.i, q.j, q.k];
         }
         m
+    }
+}
+
+/// `rec` with the master's attitude steps `steps` (`[t_s, x, y, z]`, as
+/// [`StepCorrection::new`]) taken out: the master as the filter sees it. A copy only
+/// when there are any.
+pub fn without_steps<'a>(
+    rec: &'a Recording,
+    steps: Option<&[[f64; 4]]>,
+) -> std::borrow::Cow<'a, Recording> {
+    match steps {
+        Some(steps) if !steps.is_empty() => {
+            let c = StepCorrection::new(steps);
+            let mut r = rec.clone();
+            r.master = rec.master.iter().map(|m| c.apply(m.clone())).collect();
+            std::borrow::Cow::Owned(r)
+        }
+        _ => std::borrow::Cow::Borrowed(rec),
     }
 }
 

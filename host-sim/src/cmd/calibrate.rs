@@ -333,8 +333,9 @@ pub fn calibrate(
         };
         let mut cfg = apply_declared(cfg, &origin, model, stream.master.has_rate())?;
         // The first seconds of the recording, read once more, unless the configuration
-        // gives the clock offset (then only the recording's rates are read).
-        let window = if cfg.master_clock_offset_s.is_some() {
+        // gives the clock offset and the mounting (then only the recording's rates are
+        // read).
+        let window = if cfg.master_clock_offset_s.is_some() && cfg.mounting_estimate_rad.is_some() {
             crate::recording::Recording {
                 meta: stream.meta.clone(),
                 imu_t0: stream.slave.t0(),
@@ -343,7 +344,7 @@ pub fn calibrate(
                 truth: None,
             }
         } else {
-            progress.phase("aligning the clocks");
+            progress.phase("aligning the clocks and the mounting");
             prefilter::read_window(dir, CLOCK_WINDOW_S + CLOCK_SEARCH_S + 1.0)?
         };
         progress.phase("searching the master's attitude for steps");

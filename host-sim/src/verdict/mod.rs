@@ -15,6 +15,7 @@ pub mod motion;
 pub mod run;
 
 use crate::calib::config::CalibConfig;
+use crate::calib::master_steps::without_steps;
 use crate::calib::run::CalibResult;
 use crate::learn::increments::increment_noise;
 use crate::learn::Learned;
@@ -204,7 +205,8 @@ impl Verdict {
 
 /// The verdict of a calibration of a recording seen by `scan`: the recording's
 /// plausibility and, on its first [`input::PREFIX_SAMPLES`] samples, its units and
-/// clocks; where the model came from (and, for a model given rather than learned, its
+/// clocks (the master with the steps the run took out of its attitude taken out);
+/// where the model came from (and, for a model given rather than learned, its
 /// IMU noise against the increments'); what the run did.
 pub fn of_calibration(
     scan: &mut Scan,
@@ -215,7 +217,10 @@ pub fn of_calibration(
 ) -> Verdict {
     let mut v = Verdict::default();
     v.extend(scan.findings());
-    v.extend(motion::check(scan.prefix()));
+    // The master as the filter saw it: its attitude steps taken out (a step inside a
+    // block of the clock check spoils that block's rotation).
+    let steps = cfg.master_attitude_steps.as_deref();
+    v.extend(motion::check(&without_steps(scan.prefix(), steps)));
     v.extend(model::origin(config_file, learned));
     if learned.is_none() {
         match increment_noise(scan.prefix(), input::PREFIX_SAMPLES) {
