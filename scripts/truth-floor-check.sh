@@ -5,11 +5,18 @@
 # calibrate with that truth model twice: with the matching noise floors as written
 # (velocity 1 mm/s, attitude 2 µrad where the draw has none) and with floors at the board's
 # f32 resolution (1e-5 m/s, 1e-7 rad). Prints one markdown row per seed and floor: the
-# master's drawn kind, NEES of the nine calibrated states, the mean NIS per channel axis.
+# master's drawn kind, NEES of the nine calibrated states, the largest |error|/σ among them,
+# the mean NIS per channel axis.
 # The filter is handed the truth here on purpose: the check is of the filter's own
 # model, not of the learner.
 #
 #   scripts/truth-floor-check.sh OUT_DIR DURATION_S SEED...
+#
+# Variants, each an environment variable (unset: the draw and its truth model as they are):
+#   IMU_RATE_HZ=400              the slave IMU's rate in the draw
+#   FLEXURE_ARCMIN=0.001         the drawn flexure's σ on every axis
+#   MATCHING='"attitude"'        the channels matched (a TOML list's items)
+#   MISALIGNMENT_PRIOR_RAD=0.0017  the initial misalignment σ (the truth model's is 1°)
 #
 # Uses target/release/flexcal (build it first: cargo build --release -p flexcal-sim)
 # unless FLEXCAL names another; python3 reads the JSON.
@@ -19,15 +26,24 @@ dur="${2:?DURATION_S}"
 shift 2
 F="${FLEXCAL:-target/release/flexcal}"
 mkdir -p "$out"
-echo "| seed | master | floors | NEES | NIS velocity E, N, U | NIS attitude x, y, z | NIS rate x, y, z |"
-echo "|---|---|---|---|---|---|---|"
+echo "| seed | master | floors | NEES | largest error/σ | NIS velocity E, N, U | NIS attitude x, y, z | NIS rate x, y, z |"
+echo "|---|---|---|---|---|---|---|---|"
 for s in "$@"; do
   "$F" simulate --blind --seed "$s" --duration "$dur" --out "$out/b$s" > /dev/null
-  "$F" simulate --scenario "$out/b$s.drawn.toml" --seed "$s" --out "$out/t$s" > /dev/null
-  python3 - "$out/b$s.drawn.toml" "$out/t$s/calibrate.toml" > "$out/t$s-truth.toml" <<'PY'
-import math, sys, tomllib
+  sed -e "${IMU_RATE_HZ:+/^\[slave_imu\]/,/^\[/ s/^rate_hz = .*/rate_hz = $IMU_RATE_HZ/}" \
+      -e "${FLEXURE_ARCMIN:+s/^sigma_arcmin = .*/sigma_arcmin = [$FLEXURE_ARCMIN, $FLEXURE_ARCMIN, $FLEXURE_ARCMIN]/}" \
+      "$out/b$s.drawn.toml" > "$out/v$s.drawn.toml"
+  "$F" simulate --scenario "$out/v$s.drawn.toml" --seed "$s" --out "$out/t$s" > /dev/null
+  python3 - "$out/v$s.drawn.toml" "$out/t$s/calibrate.toml" > "$out/t$s-truth.toml" <<'PY'
+import math, os, re, sys, tomllib
 drawn = tomllib.load(open(sys.argv[1], 'rb'))
-print(open(sys.argv[2]).read().rstrip())
+text = open(sys.argv[2]).read().rstrip()
+if os.environ.get('MATCHING'):
+    text = re.sub(r'^matching = .*$', 'matching = [%s]' % os.environ['MATCHING'], text, flags=re.M)
+if os.environ.get('MISALIGNMENT_PRIOR_RAD'):
+    text = re.sub(r'^initial_misalignment_rad = .*$',
+                  'initial_misalignment_rad = %s' % os.environ['MISALIGNMENT_PRIOR_RAD'], text, flags=re.M)
+print(text)
 mu = [math.radians(x) for x in drawn['misalignment_deg']]
 print('mounting_estimate_rad = [%s]' % ', '.join(repr(x) for x in mu))
 PY
@@ -36,7 +52,7 @@ PY
       "$out/t$s-truth.toml" > "$out/t$s-truth-f32.toml"
   for floors in truth truth-f32; do
     "$F" calibrate "$out/t$s" --config "$out/t$s-$floors.toml" --out "$out/c$s-$floors" > /dev/null 2>&1 || true
-    python3 - "$s" "$floors" "$out/b$s.drawn.toml" "$out/c$s-$floors/summary.json" <<'PY'
+    python3 - "$s" "$floors" "$out/v$s.drawn.toml" "$out/c$s-$floors/summary.json" <<'PY'
 import json, sys, tomllib
 seed, floors, drawn_path, summary = sys.argv[1:5]
 m = tomllib.load(open(drawn_path, 'rb'))['master']
@@ -45,8 +61,10 @@ d = json.load(open(summary))
 nis = {(r['channel'], r['axis']): r['nis_mean'] for r in d['residuals']}
 def row(ch):
     return ', '.join(f"{nis[(ch, a)]:.2f}" if (ch, a) in nis else '–' for a in range(3))
+e = d['errors']
+worst = max(abs(e[k][a] / d[k + '_sigma'][a]) for k in ('gyro_bias', 'accel_bias', 'misalignment') for a in range(3))
 label = 'as written' if floors == 'truth' else 'f32 resolution'
-print(f"| {seed} | {kind} | {label} | {d['errors']['nees_mean']:.1f} | {row('velocity')} | {row('attitude')} | {row('angular_rate')} |")
+print(f"| {seed} | {kind} | {label} | {e['nees_mean']:.1f} | {worst:.1f} | {row('velocity')} | {row('attitude')} | {row('angular_rate')} |")
 PY
   done
 done
