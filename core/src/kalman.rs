@@ -298,7 +298,9 @@ fn sum_into<T: Real>(mut acc: T, v: &[T]) -> T {
 
 /// One column of Bierman's update: for every row `i` above the column's diagonal,
 /// `U(i, j) ← U(i, j) + λ b_i` and `b_i ← b_i + U(i, j)_old g_j` (four rows per loop turn;
-/// each element's arithmetic the plain loop's).
+/// each element's arithmetic the plain loop's). The eight values are read before anything
+/// is written: otherwise the compiler, not knowing that `col` and `b` do not overlap once
+/// this is inlined, reads `b` again after each write to `col`.
 #[inline(always)]
 fn bierman_column<T: Real>(col: &mut [T], b: &mut [T], lambda: T, g: T) {
     let mut c4 = col.chunks_exact_mut(4);
@@ -306,20 +308,21 @@ fn bierman_column<T: Real>(col: &mut [T], b: &mut [T], lambda: T, g: T) {
     for (c, bb) in (&mut c4).zip(&mut b4) {
         if let ([c0, c1, c2, c3], [b0, b1, b2, b3]) = (c, bb) {
             let (u0, u1, u2, u3) = (*c0, *c1, *c2, *c3);
-            *c0 = u0 + lambda * *b0;
-            *c1 = u1 + lambda * *b1;
-            *c2 = u2 + lambda * *b2;
-            *c3 = u3 + lambda * *b3;
-            *b0 += u0 * g;
-            *b1 += u1 * g;
-            *b2 += u2 * g;
-            *b3 += u3 * g;
+            let (v0, v1, v2, v3) = (*b0, *b1, *b2, *b3);
+            *c0 = u0 + lambda * v0;
+            *c1 = u1 + lambda * v1;
+            *c2 = u2 + lambda * v2;
+            *c3 = u3 + lambda * v3;
+            *b0 = v0 + u0 * g;
+            *b1 = v1 + u1 * g;
+            *b2 = v2 + u2 * g;
+            *b3 = v3 + u3 * g;
         }
     }
     for (c, bi) in c4.into_remainder().iter_mut().zip(b4.into_remainder()) {
-        let u0 = *c;
-        *c = u0 + lambda * *bi;
-        *bi += u0 * g;
+        let (u0, v0) = (*c, *bi);
+        *c = u0 + lambda * v0;
+        *bi = v0 + u0 * g;
     }
 }
 
