@@ -542,10 +542,12 @@ fn orthogonalize_n<T: Real>(w: Gram<'_, T>, scratch: [&mut [T]; 4], floor: T, t0
     let mut clamped = 0;
     let t0 = t0.min(n);
     for j in (t0..n).rev() {
-        let column = u.iter().skip(j).step_by(n.max(1)).take(j);
-        for (c, &p) in col.iter_mut().zip(column) {
-            *c = p;
-        }
+        each_strided(
+            col.get_mut(..j).unwrap_or(&mut []),
+            u.get(j..).unwrap_or(&[]),
+            n,
+            |c, p| *c = p,
+        );
         if let (Some(dst), Some(src)) = (u.get_mut(j * n..j * n + j), col.get(..j)) {
             dst.copy_from_slice(src);
         }
