@@ -676,7 +676,11 @@ fn dot2<T: Real>(a: &[T], b: &[T], c: &[T]) -> (T, T) {
             t1 += *y3 * z3;
         }
     }
-    let rest = a4.remainder().iter().zip(b4.remainder()).zip(c4.remainder());
+    let rest = a4
+        .remainder()
+        .iter()
+        .zip(b4.remainder())
+        .zip(c4.remainder());
     for ((&x, &y), &z) in rest {
         s0 += x * z;
         t0 += y * z;
