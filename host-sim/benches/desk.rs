@@ -123,11 +123,12 @@ fn simulator(c: &mut Criterion) {
 
 criterion_group! {
     name = desk;
-    // Runs of 0.03–0.3 s each: ten samples over a few seconds keep the whole under a minute.
+    // Runs of 10–100 ms each: ten samples in six seconds (enough for the 55 runs that ten
+    // samples of a 0.1 s run take) keep the whole under a minute.
     config = Criterion::default()
         .sample_size(10)
         .warm_up_time(Duration::from_secs(1))
-        .measurement_time(Duration::from_secs(4));
+        .measurement_time(Duration::from_secs(6));
     targets = engine, calibrate, simulator
 }
 criterion_main!(desk);
