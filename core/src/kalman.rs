@@ -355,9 +355,10 @@ impl<T: Real, const N: usize> NoisePart<T, N> {
         };
         fill(&mut q.w);
         let mut weight = [T::zero(); N];
+        // Column j's non-zero rows, the first `n` (written before they are read).
+        let mut nz = [0u8; N];
         for j in (0..N).rev() {
             let dj = q.at(j, j);
-            let mut nz = [0u8; N];
             let mut n = 0;
             for (i, row) in q.w.iter().enumerate().take(j) {
                 if row.get(j).is_some_and(|&v| v != T::zero()) {
