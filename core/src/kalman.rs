@@ -570,8 +570,8 @@ fn orthogonalize_n<T: Real>(w: Gram<'_, T>, scratch: [&mut [T]; 4], floor: T, t0
             *c = dd * w;
         }
         let dj = dot(wj, cu) + dot(qj, cq);
-        col.fill(T::zero());
         if dj > T::zero() {
+            // Every row above j writes its element of column j below.
             let inv = T::one() / dj;
             let pivot = Pivot {
                 w: wj,
@@ -612,6 +612,8 @@ fn orthogonalize_n<T: Real>(w: Gram<'_, T>, scratch: [&mut [T]; 4], floor: T, t0
                     pivot.reduce(w1, q1, lo1, a1);
                 }
             }
+        } else {
+            col.fill(T::zero());
         }
         // Row j is used: its place takes column j of U.
         if let (Some(dst), Some(src)) = (rest.get_mut(..j), col.get(..j)) {
