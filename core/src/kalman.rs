@@ -298,7 +298,9 @@ fn sum_into<T: Real>(mut acc: T, v: &[T]) -> T {
 
 /// One column of Bierman's update: for every row `i` above the column's diagonal,
 /// `U(i, j) ← U(i, j) + λ b_i` and `b_i ← b_i + U(i, j)_old g_j` (four rows per loop turn;
-/// each element's arithmetic the plain loop's).
+/// each element's arithmetic the plain loop's). The eight values are read before anything
+/// is written: otherwise the compiler, not knowing that `col` and `b` do not overlap once
+/// this is inlined, reads `b` again after each write to `col`.
 #[inline(always)]
 fn bierman_column<T: Real>(col: &mut [T], b: &mut [T], lambda: T, g: T) {
     let mut c4 = col.chunks_exact_mut(4);
@@ -306,20 +308,21 @@ fn bierman_column<T: Real>(col: &mut [T], b: &mut [T], lambda: T, g: T) {
     for (c, bb) in (&mut c4).zip(&mut b4) {
         if let ([c0, c1, c2, c3], [b0, b1, b2, b3]) = (c, bb) {
             let (u0, u1, u2, u3) = (*c0, *c1, *c2, *c3);
-            *c0 = u0 + lambda * *b0;
-            *c1 = u1 + lambda * *b1;
-            *c2 = u2 + lambda * *b2;
-            *c3 = u3 + lambda * *b3;
-            *b0 += u0 * g;
-            *b1 += u1 * g;
-            *b2 += u2 * g;
-            *b3 += u3 * g;
+            let (v0, v1, v2, v3) = (*b0, *b1, *b2, *b3);
+            *c0 = u0 + lambda * v0;
+            *c1 = u1 + lambda * v1;
+            *c2 = u2 + lambda * v2;
+            *c3 = u3 + lambda * v3;
+            *b0 = v0 + u0 * g;
+            *b1 = v1 + u1 * g;
+            *b2 = v2 + u2 * g;
+            *b3 = v3 + u3 * g;
         }
     }
     for (c, bi) in c4.into_remainder().iter_mut().zip(b4.into_remainder()) {
-        let u0 = *c;
-        *c = u0 + lambda * *bi;
-        *bi += u0 * g;
+        let (u0, v0) = (*c, *bi);
+        *c = u0 + lambda * v0;
+        *bi = v0 + u0 * g;
     }
 }
 
@@ -352,9 +355,10 @@ impl<T: Real, const N: usize> NoisePart<T, N> {
         };
         fill(&mut q.w);
         let mut weight = [T::zero(); N];
+        // Column j's non-zero rows, the first `n` (written before they are read).
+        let mut nz = [0u8; N];
         for j in (0..N).rev() {
             let dj = q.at(j, j);
-            let mut nz = [0u8; N];
             let mut n = 0;
             for (i, row) in q.w.iter().enumerate().take(j) {
                 if row.get(j).is_some_and(|&v| v != T::zero()) {
@@ -539,10 +543,12 @@ fn orthogonalize_n<T: Real>(w: Gram<'_, T>, scratch: [&mut [T]; 4], floor: T, t0
     let mut clamped = 0;
     let t0 = t0.min(n);
     for j in (t0..n).rev() {
-        let column = u.iter().skip(j).step_by(n.max(1)).take(j);
-        for (c, &p) in col.iter_mut().zip(column) {
-            *c = p;
-        }
+        each_strided(
+            col.get_mut(..j).unwrap_or(&mut []),
+            u.get(j..).unwrap_or(&[]),
+            n,
+            |c, p| *c = p,
+        );
         if let (Some(dst), Some(src)) = (u.get_mut(j * n..j * n + j), col.get(..j)) {
             dst.copy_from_slice(src);
         }
@@ -564,25 +570,50 @@ fn orthogonalize_n<T: Real>(w: Gram<'_, T>, scratch: [&mut [T]; 4], floor: T, t0
             *c = dd * w;
         }
         let dj = dot(wj, cu) + dot(qj, cq);
-        col.fill(T::zero());
         if dj > T::zero() {
+            // Every row above j writes its element of column j below.
             let inv = T::one() / dj;
-            let rows = top
+            let pivot = Pivot {
+                w: wj,
+                q: qj,
+                cw: cu.get(..wj.len()).unwrap_or(&[]),
+                cq: cq.get(..qj.len()).unwrap_or(&[]),
+                l: l as u8,
+            };
+            // The earlier rows two at a time: each of the pivot's elements read once for
+            // both (its loops' set-up, as costly as their arithmetic, paid once per pair).
+            let mut rows = top
                 .chunks_exact_mut(n.max(1))
-                .zip(qtop.chunks_exact_mut(n.max(1)));
-            for (((wi, qi), lo_i), uij) in rows.zip(lo.iter_mut()).zip(col.iter_mut()) {
-                let (wi, qi) = (
-                    wi.get_mut(l..t0).unwrap_or(&mut []),
-                    qi.get_mut(fq..nq).unwrap_or(&mut []),
-                );
-                let a = (dot(wi, cu) + dot(qi, cq)) * inv;
-                *uij = a;
-                if a != T::zero() {
-                    axpy(wi, -a, wj);
-                    axpy(qi, -a, qj);
-                    *lo_i = (*lo_i).min(l as u8);
+                .zip(qtop.chunks_exact_mut(n.max(1)))
+                .zip(lo.iter_mut())
+                .zip(col.iter_mut())
+                .map(|(((wi, qi), lo_i), uij)| {
+                    let wi = wi.get_mut(l..t0).unwrap_or(&mut []);
+                    (wi, qi.get_mut(fq..nq).unwrap_or(&mut []), lo_i, uij)
+                });
+            while let Some((w0, q0, lo0, u0)) = rows.next() {
+                let Some((w1, q1, lo1, u1)) = rows.next() else {
+                    let a = (dot(w0, pivot.cw) + dot(q0, pivot.cq)) * inv;
+                    *u0 = a;
+                    pivot.reduce(w0, q0, lo0, a);
+                    break;
+                };
+                let (w_0, w_1) = dot2(w0, w1, pivot.cw);
+                let (q_0, q_1) = dot2(q0, q1, pivot.cq);
+                let (a0, a1) = ((w_0 + q_0) * inv, (w_1 + q_1) * inv);
+                (*u0, *u1) = (a0, a1);
+                if a0 != T::zero() && a1 != T::zero() {
+                    axpy2(w0, w1, -a0, -a1, pivot.w);
+                    axpy2(q0, q1, -a0, -a1, pivot.q);
+                    *lo0 = (*lo0).min(pivot.l);
+                    *lo1 = (*lo1).min(pivot.l);
+                } else {
+                    pivot.reduce(w0, q0, lo0, a0);
+                    pivot.reduce(w1, q1, lo1, a1);
                 }
             }
+        } else {
+            col.fill(T::zero());
         }
         // Row j is used: its place takes column j of U.
         if let (Some(dst), Some(src)) = (rest.get_mut(..j), col.get(..j)) {
@@ -598,6 +629,101 @@ fn orthogonalize_n<T: Real>(w: Gram<'_, T>, scratch: [&mut [T]; 4], floor: T, t0
         }
     }
     clamped
+}
+
+/// The pivot row `j` of a Gram-Schmidt step: its W and Q parts over their non-zeros, the
+/// same weighted (`D_w w_j`), and where its W part starts.
+struct Pivot<'a, T> {
+    w: &'a [T],
+    q: &'a [T],
+    cw: &'a [T],
+    cq: &'a [T],
+    l: u8,
+}
+
+impl<T: Real> Pivot<'_, T> {
+    /// An earlier row (its W and Q parts over the pivot's columns, where it starts) made
+    /// orthogonal to the pivot, `a` its projection on it: `w_i ← w_i − a w_j` if `a ≠ 0`.
+    #[inline(never)]
+    fn reduce(&self, w: &mut [T], q: &mut [T], lo: &mut u8, a: T) {
+        if a != T::zero() {
+            axpy(w, -a, self.w);
+            axpy(q, -a, self.q);
+            *lo = (*lo).min(self.l);
+        }
+    }
+}
+
+/// `(dot(a, c), dot(b, c))`, each bit for bit [`dot`]'s (the same products summed in the
+/// same order), over the shortest of the three, `c` read once for both.
+#[inline(always)]
+fn dot2<T: Real>(a: &[T], b: &[T], c: &[T]) -> (T, T) {
+    let n = a.len().min(b.len()).min(c.len());
+    let (a, b, c) = (
+        a.get(..n).unwrap_or(&[]),
+        b.get(..n).unwrap_or(&[]),
+        c.get(..n).unwrap_or(&[]),
+    );
+    let (mut s0, mut s1, mut t0, mut t1) = (T::zero(), T::zero(), T::zero(), T::zero());
+    let (mut a4, mut b4, mut c4) = (a.chunks_exact(4), b.chunks_exact(4), c.chunks_exact(4));
+    for ((x, y), z) in (&mut a4).zip(&mut b4).zip(&mut c4) {
+        if let ([x0, x1, x2, x3], [y0, y1, y2, y3], [z0, z1, z2, z3]) = (x, y, z) {
+            let (z0, z1, z2, z3) = (*z0, *z1, *z2, *z3);
+            s0 += *x0 * z0;
+            s1 += *x1 * z1;
+            s0 += *x2 * z2;
+            s1 += *x3 * z3;
+            t0 += *y0 * z0;
+            t1 += *y1 * z1;
+            t0 += *y2 * z2;
+            t1 += *y3 * z3;
+        }
+    }
+    let rest = a4
+        .remainder()
+        .iter()
+        .zip(b4.remainder())
+        .zip(c4.remainder());
+    for ((&x, &y), &z) in rest {
+        s0 += x * z;
+        t0 += y * z;
+    }
+    (s0 + s1, t0 + t1)
+}
+
+/// [`axpy`] on two rows with the same `src`, each element's arithmetic its own: `src`
+/// read once for both.
+#[inline(always)]
+fn axpy2<T: Real>(d0: &mut [T], d1: &mut [T], a0: T, a1: T, src: &[T]) {
+    let n = d0.len().min(d1.len()).min(src.len());
+    let (d0, d1, src) = (
+        d0.get_mut(..n).unwrap_or(&mut []),
+        d1.get_mut(..n).unwrap_or(&mut []),
+        src.get(..n).unwrap_or(&[]),
+    );
+    let (mut p4, mut q4, mut s4) = (
+        d0.chunks_exact_mut(4),
+        d1.chunks_exact_mut(4),
+        src.chunks_exact(4),
+    );
+    for ((p, q), s) in (&mut p4).zip(&mut q4).zip(&mut s4) {
+        if let ([p0, p1, p2, p3], [q0, q1, q2, q3], [s0, s1, s2, s3]) = (p, q, s) {
+            let (s0, s1, s2, s3) = (*s0, *s1, *s2, *s3);
+            *p0 += a0 * s0;
+            *p1 += a0 * s1;
+            *p2 += a0 * s2;
+            *p3 += a0 * s3;
+            *q0 += a1 * s0;
+            *q1 += a1 * s1;
+            *q2 += a1 * s2;
+            *q3 += a1 * s3;
+        }
+    }
+    let rest = p4.into_remainder().iter_mut().zip(q4.into_remainder());
+    for ((p, q), &s) in rest.zip(s4.remainder()) {
+        *p += a0 * s;
+        *q += a1 * s;
+    }
 }
 
 /// Puts the factors into the order `state_at` (the state at each new position; `pos` its
