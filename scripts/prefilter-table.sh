@@ -12,27 +12,18 @@
 set -euo pipefail
 out="${1:?OUT_DIR}"
 F="${FLEXCAL:-target/release/flexcal}"
+export FLEXCAL_SCRIPTS="$(cd "$(dirname "$0")" && pwd)"
 mkdir -p "$out"
 row() { # LABEL SUMMARY_JSON TAU MOUNTING_DEG
   python3 - "$@" <<'PY'
-import json, math, sys
+import json, math, os, sys
 label, path, tau, deg = sys.argv[1], sys.argv[2], float(sys.argv[3]), [float(x) for x in sys.argv[4].split(',')]
 d = json.load(open(path))
 c = d['pre_filter']['clock'].get('found', {})
 e = d['errors']
 worst = max(abs(e[k][a] / d[k + '_sigma'][a]) for k in ('gyro_bias', 'accel_bias', 'misalignment') for a in range(3))
-def rot(v):
-    th = math.sqrt(sum(x * x for x in v))
-    if th == 0:
-        return [[float(i == j) for j in range(3)] for i in range(3)]
-    k = [x / th for x in v]
-    K = [[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]]
-    KK = [[sum(K[i][l] * K[l][j] for l in range(3)) for j in range(3)] for i in range(3)]
-    return [[float(i == j) + math.sin(th) * K[i][j] + (1 - math.cos(th)) * KK[i][j] for j in range(3)] for i in range(3)]
-def angle_deg(a, b):
-    A, B = rot(a), rot(b)
-    tr = sum(A[l][i] * B[l][i] for i in range(3) for l in range(3))
-    return math.degrees(math.acos(max(-1.0, min(1.0, (tr - 1) / 2))))
+sys.path.insert(0, os.environ['FLEXCAL_SCRIPTS'])
+from rotation_angle import angle_deg
 m = d['pre_filter'].get('mounting') or {}
 found = m.get('rotation_vector_rad')
 mount = f"{angle_deg(found, [math.radians(x) for x in deg]):.3f}" if found else "—"

@@ -16,14 +16,13 @@
 //!   master's messages).
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
-use flexcal_core::earth::Position;
 use flexcal_core::engine::{Engine, ImuIncrement, MasterNav, StepReports};
 use flexcal_core::real::Real;
 use flexcal_sim::calib::config::CalibConfig;
-use flexcal_sim::calib::run::{run, Precision};
-use flexcal_sim::recording::{MasterMsg, Recording};
+use flexcal_sim::calib::run::{master_nav, run, Precision};
+use flexcal_sim::recording::Recording;
 use flexcal_sim::sim::{simulate, Scenario};
-use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use nalgebra::Vector3;
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -40,22 +39,6 @@ fn moored(seconds: f64) -> (Scenario, Recording, CalibConfig) {
 enum Input<T: Real> {
     Imu(ImuIncrement<T>),
     Master(MasterNav<T>),
-}
-
-/// The master's message as the engine takes it (ENU, Hamilton scalar-first q_bm^n).
-fn master_nav<T: Real>(m: &MasterMsg) -> MasterNav<T> {
-    let q = m.q_bm_n.map(T::of);
-    MasterNav {
-        t: m.t,
-        q_bm_n: UnitQuaternion::new_normalize(Quaternion::new(q[0], q[1], q[2], q[3])),
-        v_n: Vector3::from(m.v_n_mps.map(T::of)),
-        pos: Position {
-            lat_rad: T::of(m.lat_deg.to_radians()),
-            lon_rad: T::of(m.lon_deg.to_radians()),
-            height_m: T::of(m.height_m),
-        },
-        w_ib_bm: m.omega_ib_bm_radps.map(|w| Vector3::from(w.map(T::of))),
-    }
 }
 
 /// The recording's samples and messages in the calibrator's order: each master message

@@ -313,7 +313,9 @@ fn to3<T: Real>(v: &Vector3<T>) -> [f64; 3] {
     [v.x.to_f64(), v.y.to_f64(), v.z.to_f64()]
 }
 
-fn master_nav<T: Real>(m: &crate::recording::MasterMsg) -> MasterNav<T> {
+/// The master's message as the engine takes it (ENU, Hamilton scalar-first `q_bm^n`,
+/// position in radians).
+pub fn master_nav<T: Real>(m: &crate::recording::MasterMsg) -> MasterNav<T> {
     let q = m.q_bm_n.map(T::of);
     MasterNav {
         t: m.t,
