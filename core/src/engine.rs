@@ -320,6 +320,9 @@ pub struct Engine<T: Real, const S: usize = N> {
     /// Length of the previous IMU interval (s), to recognize a gap.
     last_imu_dt: Option<f64>,
     epoch: Option<Epoch<T>>,
+    /// Snapshots at the front of the alignment buffer, after the master that started
+    /// the solution, still holding raw increments: integrated again by `catch_up`.
+    to_reintegrate: usize,
     prev_master: Option<PrevMaster<T>>,
     last_update_t: f64,
     counters: Counters,
@@ -404,6 +407,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             last_imu_t: None,
             last_imu_dt: None,
             epoch: None,
+            to_reintegrate: 0,
             prev_master: None,
             last_update_t: 0.0,
             counters: Counters::default(),
@@ -448,6 +452,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         self.last_imu_t = None;
         self.last_imu_dt = None;
         self.epoch = None;
+        self.to_reintegrate = 0;
         self.prev_master = None;
         self.last_update_t = 0.0;
         self.counters = Counters::default();
@@ -921,6 +926,19 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// Matches the pending master messages the slave solution has reached; their reports
     /// are appended to `reports` (dropped when it is full, as before).
     fn process_pending(&mut self, reports: &mut StepReports<T>) {
+        // A master that starts the solution leaves the samples after its time to be
+        // integrated again, with their time updates, before the next one is matched:
+        // done here, outside `match_ready`, whose frame would otherwise sit under the
+        // time update's (the board's stack peak, `docs/performance.md`).
+        while self.match_ready(reports) {
+            self.catch_up();
+        }
+    }
+
+    /// Matches the pending masters the slave solution has reached, in order, until one
+    /// starts the solution (then `true`: `catch_up` is due) or none is ready.
+    #[inline(never)]
+    fn match_ready(&mut self, reports: &mut StepReports<T>) -> bool {
         while let Some(msg) = self.pending.front().copied() {
             let newest = self.buffer.newest_time();
             let needed = self.needed_until(msg.t);
@@ -938,7 +956,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             if self.strapdown.is_none() {
                 self.fate.initialized += 1;
                 self.initialize(&msg);
-                continue;
+                return true;
             }
             match self.match_master(&msg) {
                 Ok(r) => {
@@ -961,11 +979,12 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 let _ = self.past_master_rates.push_back((msg.t, w));
             }
         }
+        false
     }
 
     /// Starts the slave solution at the master message's time from the master's
-    /// attitude (through μ̂₀), velocity (with the lever arm) and position, then
-    /// re-integrates the buffered increments after that time.
+    /// attitude (through μ̂₀), velocity (with the lever arm) and position; the buffered
+    /// increments after that time are left to `catch_up`.
     fn initialize(&mut self, msg: &MasterNav<T>) {
         let c_bm_n = dcm(&msg.q_bm_n);
         let r0 = self.cfg.lever_arm_m;
@@ -976,19 +995,11 @@ impl<T: Real, const S: usize> Engine<T, S> {
             v_n: msg.v_n + lever_v,
             pos: earth::Local::at(&msg.pos).offset_position(&(c_bm_n * r0)),
         };
-        // The snapshots after msg.t are re-integrated in place, oldest first: each is taken
-        // from the front of the ring and its re-integrated copy put at the back, after the
-        // start (which the ring, when full, drops: it would have been the oldest of M + 1).
-        // No copy of the buffer on the stack (it was the board's stack peak, 9.2 kB).
+        // The snapshots after msg.t are integrated again in place (`catch_up`), with no
+        // copy of the buffer on the stack (it was the board's stack peak, 9.2 kB).
         self.buffer.drop_until(msg.t);
         let raw_count = self.buffer.len();
         self.strapdown = Some(Strapdown::new(nav));
-        // The first filter period starts here. The re-integrated samples count in it, and
-        // a period they complete is predicted before any master is matched, as `integrate`
-        // does: with the IMU at the master's rate the first sample after the start ends
-        // the first period, and matched without its time update that master's attitude
-        // was taken as known to its noise (blind seed 42, attitude noise 1e-7 rad: first
-        // innovation 75σ, and a 22′ misalignment error locked in; `docs/model-learning.md`).
         self.epoch = Some(Epoch {
             next_t: msg.t + self.cfg.filter_period_s,
             q_start: nav.q_b_n,
@@ -996,60 +1007,83 @@ impl<T: Real, const S: usize> Engine<T, S> {
             dv: Vector3::zeros(),
             dt: 0.0,
         });
-        let mut start = (raw_count < ALIGN_DEPTH).then_some(Snapshot {
-            t: msg.t,
-            q_b_n: nav.q_b_n,
-            v_n: nav.v_n,
-            dtheta_raw_b: Vector3::zeros(),
-            dv_raw_b: Vector3::zeros(),
-            dt: 0.0,
-        });
-        let mut t_prev = msg.t;
-        for _ in 0..raw_count {
-            let Some(s) = self.buffer.pop_oldest() else {
-                break;
-            };
-            if let Some(st) = start.take() {
-                self.buffer.push(st);
-            }
-            // The interval straddling the start contributes its part after msg.t.
-            let dt = s.t - t_prev;
-            let frac = T::of(if s.dt > 0.0 {
-                (dt / s.dt).clamp(0.0, 1.0)
-            } else {
-                0.0
+        // The start goes behind the raw snapshots; `catch_up` takes each from the front
+        // and puts its integrated copy at the back, so the ring ends oldest first. With
+        // the ring full of them the start is left out: it would be the oldest of M + 1.
+        if raw_count < ALIGN_DEPTH {
+            self.buffer.push(Snapshot {
+                t: msg.t,
+                q_b_n: nav.q_b_n,
+                v_n: nav.v_n,
+                dtheta_raw_b: Vector3::zeros(),
+                dv_raw_b: Vector3::zeros(),
+                dt: 0.0,
             });
-            let dtt = T::of(dt);
-            let inc = Increments {
-                dtheta_b: (s.dtheta_raw_b * frac) - self.gyro_bias * dtt,
-                dv_b: (s.dv_raw_b * frac) - self.accel_bias * dtt,
-                dt: dtt,
-            };
-            if let Some(sd) = self.strapdown.as_mut() {
-                let _phase = probe::enter(Phase::Strapdown);
-                sd.step_timed(&inc, dt);
-                self.buffer.push(Snapshot {
-                    q_b_n: sd.nav.q_b_n,
-                    v_n: sd.nav.v_n,
-                    ..s
-                });
-            }
-            if let Some(ep) = self.epoch.as_mut() {
-                ep.dtheta += inc.dtheta_b;
-                ep.dv += inc.dv_b;
-                ep.dt += dt;
-            }
-            self.maybe_predict(s.t);
-            t_prev = s.t;
         }
-        if let Some(st) = start {
-            self.buffer.push(st);
-        }
+        self.to_reintegrate = raw_count;
         self.prev_master = Some(PrevMaster {
             t: msg.t,
             q_bm_n: msg.q_bm_n,
         });
         self.last_update_t = msg.t;
+    }
+
+    /// Integrates again, from the start `initialize` made, the snapshots the buffer held
+    /// after the starting master's time (`to_reintegrate`, oldest first): their
+    /// increments count in the first filter period, and a period they complete is
+    /// predicted before the next master is matched. With the IMU at the master's rate
+    /// the first master waits for a sample after its time, so the first period is
+    /// complete here; matched without its time update, the next master's attitude was
+    /// taken as known to its noise (blind seed 42, attitude noise 1e-7 rad: a 75σ
+    /// innovation and a 22′ misalignment error, `docs/model-learning.md`).
+    ///
+    /// They go back to the front of the hold, where `advance` (or `flush`) integrates
+    /// them as it does every sample, at no deeper stack than that (the board's peak is
+    /// the time update's, `docs/performance.md`); only when the hold has no room for
+    /// them are they integrated from here.
+    #[inline(never)]
+    fn catch_up(&mut self) {
+        let n = core::mem::take(&mut self.to_reintegrate);
+        // The start's time: no master has been matched since `initialize` set it.
+        let start_t = self.last_update_t;
+        // The sample `k` of the `n` (oldest first), its interval cut at the start.
+        let held = |buffer: &AlignBuffer<T, ALIGN_DEPTH>, k: usize| {
+            let s = buffer.iter().nth(k)?;
+            let dt = s.t - (s.t - s.dt).max(start_t);
+            let frac = T::of(if s.dt > 0.0 {
+                (dt / s.dt).clamp(0.0, 1.0)
+            } else {
+                0.0
+            });
+            Some(HeldImu {
+                s: ImuIncrement {
+                    t: s.t,
+                    dtheta_b: s.dtheta_raw_b * frac,
+                    dv_b: s.dv_raw_b * frac,
+                },
+                dt,
+                gap: false,
+            })
+        };
+        // One slot kept free: `push_imu` may be about to hold the sample it was given.
+        if IMU_HOLD_DEPTH.saturating_sub(self.held.len()) > n {
+            // Newest first, each to the front.
+            for k in (0..n).rev() {
+                if let Some(h) = held(&self.buffer, k) {
+                    let _ = self.held.push_front(h);
+                }
+            }
+            for _ in 0..n {
+                let _ = self.buffer.pop_oldest();
+            }
+        } else {
+            for _ in 0..n {
+                if let Some(h) = held(&self.buffer, 0) {
+                    let _ = self.buffer.pop_oldest();
+                    self.integrate(&h);
+                }
+            }
+        }
     }
 
     /// The master body's rate relative to the Earth (rad/s, master body), for the
@@ -1305,6 +1339,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         self.strapdown = None;
         self.buffer.clear();
         self.epoch = None;
+        self.to_reintegrate = 0;
         self.gated_streaks = [0; 3];
         self.past_master_rates.clear();
         self.counters.resets += 1;
