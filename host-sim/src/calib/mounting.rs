@@ -46,7 +46,46 @@ pub struct CoarseMounting {
     /// Singular values of `B`, largest first (rad²): how many axes the motion turned
     /// about.
     pub singular_values: [f64; 3],
+    /// Angle between the fits of the window's first and second halves (rad): what the
+    /// blocks' correlated errors (the flexure's, slow against a block) do to a fit,
+    /// which the residual's RMS, read as white, understates.
+    pub split_half_rad: f64,
 }
+
+impl CoarseMounting {
+    /// An upper bound (95 %) of the fit's error σ per axis (rad), from the two halves:
+    /// their difference has variance 2σ_h² per axis, the whole window's fit σ_h²/2, so
+    /// σ² ≈ |δ|²/12 with three degrees of freedom, and its 95 % upper bound is
+    /// 3/χ²₃(0.05) = 8.5 times that: σ ≤ 0.84 |δ|. Never below what the residuals give
+    /// read as white (`rms_residual / √(s₂ + s₃)`, the least-turned axes).
+    pub fn sigma_bound_rad(&self) -> f64 {
+        let [_, s2, s3] = self.singular_values;
+        let white = self.rms_residual_rad / (s2 + s3).sqrt();
+        (0.84 * self.split_half_rad).max(white)
+    }
+
+    /// The misalignment prior (rad) a model to be learned starts from about this
+    /// mounting: [`Self::sigma_bound_rad`], within the learner's bounds; `default_rad`
+    /// when the bound is not a number. The built-in 1° about a mounting found to a tenth
+    /// of a degree let the filter's first updates, against a precise master, resolve the
+    /// misalignment from the errors' second-order products (~(1°)²): blind seed 41
+    /// handed its truth, attitude matched alone at a 1e-7 rad noise, NEES 40.5; with a
+    /// 0.1° prior 4.6 (`docs/model-learning.md`, session 8).
+    pub fn misalignment_prior_rad(&self, default_rad: f64) -> f64 {
+        let b = self.sigma_bound_rad();
+        if b.is_finite() && b > 0.0 {
+            b.clamp(MISALIGNMENT_PRIOR_MIN_RAD, MISALIGNMENT_PRIOR_MAX_RAD)
+        } else {
+            default_rad
+        }
+    }
+}
+
+/// The learner's range of the initial misalignment σ (rad): 1″ to 45°
+/// (`learn::params::Param::InitialMisalignment`).
+const MISALIGNMENT_PRIOR_MIN_RAD: f64 = 5e-6;
+/// See [`MISALIGNMENT_PRIOR_MIN_RAD`].
+const MISALIGNMENT_PRIOR_MAX_RAD: f64 = 0.8;
 
 /// Finds the mounting from the first `window_s` seconds of `rec`.
 pub fn coarse_mounting(rec: &Recording, window_s: f64) -> Result<CoarseMounting, String> {
@@ -91,27 +130,15 @@ pub fn coarse_mounting_after_clock(
             pairs.len()
         ));
     }
-    let b: Matrix3<f64> = pairs.iter().map(|(m, s)| m * s.transpose()).sum();
-    let svd = b.svd(true, true);
-    let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
-        return Err("the alignment's singular value decomposition failed".into());
+    let (r, sv) = fit(&pairs)?;
+    let half = pairs.len() / 2;
+    let split_half_rad = match (
+        fit(pairs.get(..half).unwrap_or(&[])),
+        fit(pairs.get(half..).unwrap_or(&[])),
+    ) {
+        (Ok((r1, _)), Ok((r2, _))) => log_so3(&(r1.transpose() * r2)).norm(),
+        _ => f64::NAN,
     };
-    let mut sv = [
-        svd.singular_values[0],
-        svd.singular_values[1],
-        svd.singular_values[2],
-    ];
-    sv.sort_by(|x, y| y.total_cmp(x));
-    if !(sv[0] > 0.0 && sv[1] >= MIN_SECOND_SINGULAR_RATIO * sv[0]) {
-        return Err(format!(
-            "the platform turned about fewer than two axes in the first {window_s} s \
-             (singular values {:.3e}, {:.3e}, {:.3e} rad²): the mounting about the missing \
-             axis cannot be seen by its rotation",
-            sv[0], sv[1], sv[2]
-        ));
-    }
-    let d = (u.determinant() * v_t.determinant()).signum();
-    let r = u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * v_t;
     let mu = log_so3(&r);
     let n = pairs.len() as f64;
     let mean_square_residual = pairs
@@ -126,7 +153,39 @@ pub fn coarse_mounting_after_clock(
         rms_residual_rad: mean_square_residual.sqrt(),
         rms_rotation_rad: mean_square_rotation.sqrt(),
         singular_values: sv,
+        split_half_rad,
     })
+}
+
+/// The rotation `C_bs^bm` that best takes the slave's block rotations onto the master's
+/// (Wahba's problem by the SVD of `B = Σ φ_m φ_sᵀ`), with `B`'s singular values, largest
+/// first; refused when the blocks turned about fewer than two axes.
+fn fit(pairs: &[(Vector3<f64>, Vector3<f64>)]) -> Result<(Matrix3<f64>, [f64; 3]), String> {
+    let b: Matrix3<f64> = pairs.iter().map(|(m, s)| m * s.transpose()).sum();
+    let svd = b.svd(true, true);
+    let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
+        return Err("the alignment's singular value decomposition failed".into());
+    };
+    let mut sv = [
+        svd.singular_values[0],
+        svd.singular_values[1],
+        svd.singular_values[2],
+    ];
+    sv.sort_by(|x, y| y.total_cmp(x));
+    if !(sv[0] > 0.0 && sv[1] >= MIN_SECOND_SINGULAR_RATIO * sv[0]) {
+        return Err(format!(
+            "the platform turned about fewer than two axes in {} s \
+             (singular values {:.3e}, {:.3e}, {:.3e} rad²): the mounting about the missing \
+             axis cannot be seen by its rotation",
+            pairs.len() as f64 * BLOCK_S,
+            sv[0],
+            sv[1],
+            sv[2]
+        ));
+    }
+    let d = (u.determinant() * v_t.determinant()).signum();
+    let r = u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * v_t;
+    Ok((r, sv))
 }
 
 /// The rotation vector of the same rotation with its angle within [0, π] (a mounting

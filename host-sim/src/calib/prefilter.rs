@@ -251,6 +251,9 @@ fn mounting_step(
     );
     if let Ok(m) = &found {
         cfg.mounting_estimate_rad = Some(m.rotation_vector_rad);
+        if learning {
+            cfg.initial_misalignment_rad = m.misalignment_prior_rad(cfg.initial_misalignment_rad);
+        }
     }
     Some(found)
 }

@@ -163,6 +163,8 @@ pub fn learn(
         let found = coarse_mounting(rec, MOUNTING_WINDOW_S);
         if let Ok(m) = &found {
             start.mounting_estimate_rad = Some(m.rotation_vector_rad);
+            start.initial_misalignment_rad =
+                m.misalignment_prior_rad(start.initial_misalignment_rad);
         }
         found
     });
