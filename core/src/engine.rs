@@ -273,6 +273,14 @@ struct Epoch<T: Real> {
     dt: f64,
 }
 
+/// Where `initialize` started the slave solution: the starting master's time (s) and
+/// how many buffered snapshots after it still hold raw increments, for `catch_up`.
+#[derive(Clone, Copy, Debug)]
+struct Start {
+    t: f64,
+    raw_count: usize,
+}
+
 /// An IMU sample waiting for the master messages of its time.
 #[derive(Clone, Copy, Debug)]
 struct HeldImu<T: Real> {
@@ -320,9 +328,6 @@ pub struct Engine<T: Real, const S: usize = N> {
     /// Length of the previous IMU interval (s), to recognize a gap.
     last_imu_dt: Option<f64>,
     epoch: Option<Epoch<T>>,
-    /// Snapshots at the front of the alignment buffer, after the master that started
-    /// the solution, still holding raw increments: integrated again by `catch_up`.
-    to_reintegrate: usize,
     prev_master: Option<PrevMaster<T>>,
     last_update_t: f64,
     counters: Counters,
@@ -407,7 +412,6 @@ impl<T: Real, const S: usize> Engine<T, S> {
             last_imu_t: None,
             last_imu_dt: None,
             epoch: None,
-            to_reintegrate: 0,
             prev_master: None,
             last_update_t: 0.0,
             counters: Counters::default(),
@@ -452,7 +456,6 @@ impl<T: Real, const S: usize> Engine<T, S> {
         self.last_imu_t = None;
         self.last_imu_dt = None;
         self.epoch = None;
-        self.to_reintegrate = 0;
         self.prev_master = None;
         self.last_update_t = 0.0;
         self.counters = Counters::default();
@@ -930,15 +933,15 @@ impl<T: Real, const S: usize> Engine<T, S> {
         // integrated again, with their time updates, before the next one is matched:
         // done here, outside `match_ready`, whose frame would otherwise sit under the
         // time update's (the board's stack peak, `docs/performance.md`).
-        while self.match_ready(reports) {
-            self.catch_up();
+        while let Some(start) = self.match_ready(reports) {
+            self.catch_up(start);
         }
     }
 
     /// Matches the pending masters the slave solution has reached, in order, until one
-    /// starts the solution (then `true`: `catch_up` is due) or none is ready.
+    /// starts the solution (then the start, for `catch_up`) or none is ready.
     #[inline(never)]
-    fn match_ready(&mut self, reports: &mut StepReports<T>) -> bool {
+    fn match_ready(&mut self, reports: &mut StepReports<T>) -> Option<Start> {
         while let Some(msg) = self.pending.front().copied() {
             let newest = self.buffer.newest_time();
             let needed = self.needed_until(msg.t);
@@ -955,8 +958,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             let _ = self.pending.pop_front();
             if self.strapdown.is_none() {
                 self.fate.initialized += 1;
-                self.initialize(&msg);
-                return true;
+                return Some(self.initialize(&msg));
             }
             match self.match_master(&msg) {
                 Ok(r) => {
@@ -979,13 +981,13 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 let _ = self.past_master_rates.push_back((msg.t, w));
             }
         }
-        false
+        None
     }
 
     /// Starts the slave solution at the master message's time from the master's
     /// attitude (through μ̂₀), velocity (with the lever arm) and position; the buffered
     /// increments after that time are left to `catch_up`.
-    fn initialize(&mut self, msg: &MasterNav<T>) {
+    fn initialize(&mut self, msg: &MasterNav<T>) -> Start {
         let c_bm_n = dcm(&msg.q_bm_n);
         let r0 = self.cfg.lever_arm_m;
         let q_bs_n = msg.q_bm_n * quat_exp(&self.misalignment);
@@ -1020,36 +1022,37 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 dt: 0.0,
             });
         }
-        self.to_reintegrate = raw_count;
         self.prev_master = Some(PrevMaster {
             t: msg.t,
             q_bm_n: msg.q_bm_n,
         });
         self.last_update_t = msg.t;
+        Start {
+            t: msg.t,
+            raw_count,
+        }
     }
 
     /// Integrates again, from the start `initialize` made, the snapshots the buffer held
-    /// after the starting master's time (`to_reintegrate`, oldest first): their
+    /// after the starting master's time (`start.raw_count`, oldest first): their
     /// increments count in the first filter period, and a period they complete is
     /// predicted before the next master is matched. With the IMU at the master's rate
     /// the first master waits for a sample after its time, so the first period is
     /// complete here; matched without its time update, the next master's attitude was
-    /// taken as known to its noise (blind seed 42, attitude noise 1e-7 rad: a 75σ
-    /// innovation and a 22′ misalignment error, `docs/model-learning.md`).
+    /// taken as known to its noise (blind seed 41 handed its truth, attitude matched
+    /// alone at 1e-7 rad: NEES 195, 40.5 with this, `docs/model-learning.md`).
     ///
     /// They go back to the front of the hold, where `advance` (or `flush`) integrates
     /// them as it does every sample, at no deeper stack than that (the board's peak is
     /// the time update's, `docs/performance.md`); only when the hold has no room for
     /// them are they integrated from here.
     #[inline(never)]
-    fn catch_up(&mut self) {
-        let n = core::mem::take(&mut self.to_reintegrate);
-        // The start's time: no master has been matched since `initialize` set it.
-        let start_t = self.last_update_t;
+    fn catch_up(&mut self, start: Start) {
+        let n = start.raw_count;
         // The sample `k` of the `n` (oldest first), its interval cut at the start.
-        let held = |buffer: &AlignBuffer<T, ALIGN_DEPTH>, k: usize| {
+        let after_start = |buffer: &AlignBuffer<T, ALIGN_DEPTH>, k: usize| {
             let s = buffer.iter().nth(k)?;
-            let dt = s.t - (s.t - s.dt).max(start_t);
+            let dt = s.t - (s.t - s.dt).max(start.t);
             let frac = T::of(if s.dt > 0.0 {
                 (dt / s.dt).clamp(0.0, 1.0)
             } else {
@@ -1069,7 +1072,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         if IMU_HOLD_DEPTH.saturating_sub(self.held.len()) > n {
             // Newest first, each to the front.
             for k in (0..n).rev() {
-                if let Some(h) = held(&self.buffer, k) {
+                if let Some(h) = after_start(&self.buffer, k) {
                     let _ = self.held.push_front(h);
                 }
             }
@@ -1078,7 +1081,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             }
         } else {
             for _ in 0..n {
-                if let Some(h) = held(&self.buffer, 0) {
+                if let Some(h) = after_start(&self.buffer, 0) {
                     let _ = self.buffer.pop_oldest();
                     self.integrate(&h);
                 }
@@ -1339,7 +1342,6 @@ impl<T: Real, const S: usize> Engine<T, S> {
         self.strapdown = None;
         self.buffer.clear();
         self.epoch = None;
-        self.to_reintegrate = 0;
         self.gated_streaks = [0; 3];
         self.past_master_rates.clear();
         self.counters.resets += 1;

@@ -20,6 +20,8 @@
 //! a quay does not, and then the alignment says so and the filter starts from zero.
 
 use super::clock::SlaveAngles;
+use super::config::CalibConfig;
+use crate::learn::params::Param;
 use crate::recording::Recording;
 use flexcal_core::rotation::log_so3;
 use nalgebra::{Matrix3, Vector3};
@@ -64,28 +66,23 @@ impl CoarseMounting {
         (0.84 * self.split_half_rad).max(white)
     }
 
-    /// The misalignment prior (rad) a model to be learned starts from about this
-    /// mounting: [`Self::sigma_bound_rad`], within the learner's bounds; `default_rad`
-    /// when the bound is not a number. The built-in 1° about a mounting found to a tenth
-    /// of a degree let the filter's first updates, against a precise master, resolve the
-    /// misalignment from the errors' second-order products (~(1°)²): blind seed 41
-    /// handed its truth, attitude matched alone at a 1e-7 rad noise, NEES 40.5; with a
-    /// 0.1° prior 4.6 (`docs/model-learning.md`, session 8).
-    pub fn misalignment_prior_rad(&self, default_rad: f64) -> f64 {
+    /// Starts a model to be learned from this mounting: `mounting_estimate_rad`, and the
+    /// misalignment prior about it [`Self::sigma_bound_rad`] (within the learner's
+    /// bounds; the configuration's own when the bound is not a number). The built-in 1°
+    /// about a mounting found to a tenth of a degree let the filter's first updates,
+    /// against a precise master, resolve the misalignment from the errors' second-order
+    /// products (~(1°)²): blind seed 41 handed its truth, attitude matched alone at a
+    /// 1e-7 rad noise, NEES 40.5; with a 0.1° prior 4.6 (`docs/model-learning.md`,
+    /// session 8).
+    pub fn start_learning(&self, cfg: &mut CalibConfig) {
+        cfg.mounting_estimate_rad = Some(self.rotation_vector_rad);
         let b = self.sigma_bound_rad();
         if b.is_finite() && b > 0.0 {
-            b.clamp(MISALIGNMENT_PRIOR_MIN_RAD, MISALIGNMENT_PRIOR_MAX_RAD)
-        } else {
-            default_rad
+            let (lo, hi) = Param::InitialMisalignment.bounds();
+            cfg.initial_misalignment_rad = b.clamp(lo, hi);
         }
     }
 }
-
-/// The learner's range of the initial misalignment σ (rad): 1″ to 45°
-/// (`learn::params::Param::InitialMisalignment`).
-const MISALIGNMENT_PRIOR_MIN_RAD: f64 = 5e-6;
-/// See [`MISALIGNMENT_PRIOR_MIN_RAD`].
-const MISALIGNMENT_PRIOR_MAX_RAD: f64 = 0.8;
 
 /// Finds the mounting from the first `window_s` seconds of `rec`.
 pub fn coarse_mounting(rec: &Recording, window_s: f64) -> Result<CoarseMounting, String> {

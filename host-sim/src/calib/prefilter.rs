@@ -229,12 +229,13 @@ pub fn prepare_after_steps(
 /// `cfg.master_clock_offset_s`) and written into `cfg` as `mounting_estimate_rad`, when
 /// the configuration names none. A model to be learned (`learning`) takes it here only
 /// when the clocks were moved or steps taken out (`moved`); otherwise the learner finds
-/// it itself on the recording as it is, the same data. A declared configuration takes
-/// it always: its misalignment σ then describes the error about the mounting found, a
-/// few hundredths to two tenths of a degree, instead of about zero, where a mounting of
-/// a few degrees is left to the filter's linearization (blind seed 104's model
-/// declared, 2.1° with σ 1°, 120 s: NEES 303 from zero, 9.7 from the mounting found;
-/// `scripts/declared-mounting-table.sh`, `docs/diagnosis.md`).
+/// it itself on the recording as it is, the same data; either way with the misalignment
+/// prior from the fit (`CoarseMounting::start_learning`). A declared configuration takes
+/// it always, its prior as declared: its misalignment σ then describes the error about
+/// the mounting found, a few hundredths to two tenths of a degree, instead of about
+/// zero, where a mounting of a few degrees is left to the filter's linearization (blind
+/// seed 104's model declared, 2.1° with σ 1°, 120 s: NEES 303 from zero, 9.7 from the
+/// mounting found; `scripts/declared-mounting-table.sh`, `docs/diagnosis.md`).
 fn mounting_step(
     rec: &Recording,
     cfg: &mut CalibConfig,
@@ -249,11 +250,10 @@ fn mounting_step(
         MOUNTING_WINDOW_S,
         cfg.master_clock_offset_s.unwrap_or(0.0),
     );
-    if let Ok(m) = &found {
-        cfg.mounting_estimate_rad = Some(m.rotation_vector_rad);
-        if learning {
-            cfg.initial_misalignment_rad = m.misalignment_prior_rad(cfg.initial_misalignment_rad);
-        }
+    match &found {
+        Ok(m) if learning => m.start_learning(cfg),
+        Ok(m) => cfg.mounting_estimate_rad = Some(m.rotation_vector_rad),
+        Err(_) => {}
     }
     Some(found)
 }

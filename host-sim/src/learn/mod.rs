@@ -162,9 +162,7 @@ pub fn learn(
     let mounting = start.mounting_estimate_rad.is_none().then(|| {
         let found = coarse_mounting(rec, MOUNTING_WINDOW_S);
         if let Ok(m) = &found {
-            start.mounting_estimate_rad = Some(m.rotation_vector_rad);
-            start.initial_misalignment_rad =
-                m.misalignment_prior_rad(start.initial_misalignment_rad);
+            m.start_learning(&mut start);
         }
         found
     });
