@@ -17,6 +17,10 @@
 #   FLEXURE_ARCMIN=0.001         the drawn flexure's σ on every axis
 #   MATCHING='"attitude"'        the channels matched (a TOML list's items)
 #   MISALIGNMENT_PRIOR_RAD=0.0017  the initial misalignment σ (the truth model's is 1°)
+#   LEVER_ARM_M='0.0, 0.0, 0.0'  the drawn lever arm (m, master body)
+#   FLOORS=truth                 only the floors as written (truth-f32: only the f32 ones)
+#   SMOOTH_ATTITUDE_ARCSEC=0.001, SMOOTH_VELOCITY_MPS=1e-6   a smooth master's drawn σ
+#   MASTER_RATE_NOISE_DEG_H, MASTER_ATTITUDE_NOISE_DEG, MASTER_VELOCITY_NOISE_MPS   its white noise
 #
 # Uses target/release/flexcal (build it first: cargo build --release -p flexcal-sim)
 # unless FLEXCAL names another; python3 reads the JSON.
@@ -32,6 +36,12 @@ for s in "$@"; do
   "$F" simulate --blind --seed "$s" --duration "$dur" --out "$out/b$s" > /dev/null
   sed -e "${IMU_RATE_HZ:+/^\[slave_imu\]/,/^\[/ s/^rate_hz = .*/rate_hz = $IMU_RATE_HZ/}" \
       -e "${FLEXURE_ARCMIN:+s/^sigma_arcmin = .*/sigma_arcmin = [$FLEXURE_ARCMIN, $FLEXURE_ARCMIN, $FLEXURE_ARCMIN]/}" \
+      -e "${LEVER_ARM_M:+s/^r0_m = .*/r0_m = [$LEVER_ARM_M]/}" \
+      -e "${SMOOTH_ATTITUDE_ARCSEC:+s/^attitude_arcsec = .*/attitude_arcsec = $SMOOTH_ATTITUDE_ARCSEC/}" \
+      -e "${SMOOTH_VELOCITY_MPS:+s/^velocity_mps = .*/velocity_mps = $SMOOTH_VELOCITY_MPS/}" \
+      -e "${MASTER_RATE_NOISE_DEG_H:+s/^rate_noise_deg_h = .*/rate_noise_deg_h = $MASTER_RATE_NOISE_DEG_H/}" \
+      -e "${MASTER_ATTITUDE_NOISE_DEG:+s/^attitude_noise_deg = .*/attitude_noise_deg = $MASTER_ATTITUDE_NOISE_DEG/}" \
+      -e "${MASTER_VELOCITY_NOISE_MPS:+s/^velocity_noise_mps = .*/velocity_noise_mps = $MASTER_VELOCITY_NOISE_MPS/}" \
       "$out/b$s.drawn.toml" > "$out/v$s.drawn.toml"
   "$F" simulate --scenario "$out/v$s.drawn.toml" --seed "$s" --out "$out/t$s" > /dev/null
   python3 - "$out/v$s.drawn.toml" "$out/t$s/calibrate.toml" > "$out/t$s-truth.toml" <<'PY'
@@ -50,7 +60,7 @@ PY
   sed -e 's/^velocity_noise_mps = \[0.001, 0.001, 0.001\]/velocity_noise_mps = [0.00001, 0.00001, 0.00001]/' \
       -e 's/^attitude_noise_rad = \[0.000002, 0.000002, 0.000002\]/attitude_noise_rad = [0.0000001, 0.0000001, 0.0000001]/' \
       "$out/t$s-truth.toml" > "$out/t$s-truth-f32.toml"
-  for floors in truth truth-f32; do
+  for floors in ${FLOORS:-truth truth-f32}; do
     "$F" calibrate "$out/t$s" --config "$out/t$s-$floors.toml" --out "$out/c$s-$floors" > /dev/null 2>&1 || true
     python3 - "$s" "$floors" "$out/v$s.drawn.toml" "$out/c$s-$floors/summary.json" <<'PY'
 import json, sys, tomllib

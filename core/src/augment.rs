@@ -24,7 +24,7 @@
 //! | `lever_arm_error` | `δr` (3, m, master body) | the true arm is `r0 + δr` | z_v += C_bm^n [ω_eb×] δr |
 //! | `gyro_g_sensitivity` | `G` (9, rad/s per m/s², row-major) | gyro measures `ω + G f` | ψ̇ += G f |
 //! | `lever_arm_coupling` | `δR` (9, m/rad, row-major) | the true bending is `R + δR` | z_v += C_bm^n ([ω_eb×] δR θ + δR θ̇) |
-//! | `master_attitude_error` | `φ_m` (3, rad, ENU) | the master reports `Exp(φ_m) C_bm^n` | z_a −= Ĉ_bs^nᵀ φ_m; φ̇_m = −φ_m/τ + w |
+//! | `master_attitude_error` | `φ_m` (3, rad, ENU) | the master reports `Exp(φ_m) C_bm^n` | z_a −= Ĉ_bs^nᵀ φ_m; z_v −= φ_m × C_bm^n (ω_eb^bm × r0); φ̇_m = −φ_m/τ + w |
 //! | `master_velocity_error` | `δv_m` (3, m/s, ENU) | the master reports `v_m + δv_m` | z_v −= δv_m; δv̇_m = −δv_m/τ + w |
 //!
 //! `docs/diagnosis.md` derives each column; `core/tests/linearization_f.rs` and
@@ -414,6 +414,9 @@ pub struct Signature<T: Real> {
     pub c_bm_n: Matrix3<T>,
     /// Master body rate relative to the Earth, master body (rad/s).
     pub w_eb_bm: Vector3<T>,
+    /// The static lever arm's velocity `C_bm^n (ω_eb^bm × r0)`, ENU (m/s): the master's
+    /// attitude carries it to the slave, so the master's attitude error moves it.
+    pub lever_v_n: Vector3<T>,
     /// Rate of change of the slave velocity, ENU (m/s²).
     pub v_dot_n: Vector3<T>,
     /// Slave body rate relative to the navigation frame, slave body (rad/s).
@@ -491,6 +494,11 @@ pub fn add_measurement<T: Real, const S: usize>(
             }
             (Effect::MasterAttitudeError, Channel::Attitude) => {
                 add_columns(rows, o, &(-sig.c_bs_n.transpose()))
+            }
+            (Effect::MasterAttitudeError, Channel::Velocity) => {
+                // The reported Exp(φ_m) C_bm^n turns the lever arm's velocity u by φ_m:
+                // z_v −= φ_m × u.
+                add_columns(rows, o, &skew(&sig.lever_v_n))
             }
             (Effect::MasterVelocityError, Channel::Velocity) => {
                 add_columns(rows, o, &(-Matrix3::identity()))

@@ -441,10 +441,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         if cfg.augmentation.dimension() > S || S < N {
             return Err(EngineError::TooManyStates);
         }
-        self.kf
-            .restart_factored(cfg.variance_floor, static_states(&cfg), |u, d| {
-                Self::initial_factor(&cfg, u, d)
-            });
+        Self::restart_covariance(&mut self.kf, &cfg, None);
         self.kf.health = Health::default();
         self.strapdown = None;
         self.buffer.clear();
@@ -478,7 +475,23 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// axis's `(θ, θ̇)` pair: θ given θ̇. Equal to the formed `P₀` (tested,
     /// `initial_factor_is_the_formed_covariance`). Written into the filter's own storage (`u`, `d`:
     /// see [`Kalman::restart_factored`]).
-    fn initial_factor(cfg: &EngineConfig<T>, u: &mut StateMat<T, S>, d: &mut StateVec<T, S>) {
+    ///
+    /// `start_c_bs_n`, the slave's attitude (body to ENU) when its solution starts from a
+    /// master message: the slave then takes the master's attitude and velocity as
+    /// reported, so with the master reporting `Exp(φ_m) C_bm^n` and `v_m + δv_m` its
+    /// starting errors hold the master's smooth errors of that instant, ψ₀ gains
+    /// `Ĉ_bs^nᵀ φ_m` and δv₀ gains δv_m (the sign that makes the first attitude
+    /// innovation zero, as the start is), and P₀ says so where the layout carries those
+    /// blocks. Left independent, P₀ claimed the start's tilt known to the white noise
+    /// while it was off by the master's slow error, which then stays in the
+    /// accelerometer bias and tilt the filter cannot tell apart (smooth-master blind
+    /// seeds handed their truth: `docs/model-learning.md`, session 9).
+    fn initial_factor(
+        cfg: &EngineConfig<T>,
+        start_c_bs_n: Option<&Matrix3<T>>,
+        u: &mut StateMat<T, S>,
+        d: &mut StateVec<T, S>,
+    ) {
         let s = &cfg.initial_sigma;
         let sq = |x: T| x * x;
         let mut set_d = |i: usize, v: T| {
@@ -541,6 +554,35 @@ impl<T: Real, const S: usize> Engine<T, S> {
             let sigma = cfg.measurement_noise.attitude_rad.get(r).copied();
             set_d(PSI + r, sq(sigma.unwrap_or_else(T::zero)));
         }
+        // The master's smooth errors at the start: ψ's row `Ĉ_bs^nᵀ` at φ_m's columns,
+        // δv's the identity at δv_m's.
+        let att = cfg.augmentation.offset(Effect::MasterAttitudeError);
+        let vel = cfg.augmentation.offset(Effect::MasterVelocityError);
+        if let Some(c_bs_n) = start_c_bs_n {
+            for r in 0..3 {
+                for c in 0..3 {
+                    if let Some(o) = att {
+                        mat::set(u, PSI + r, o + c, mat::get(c_bs_n, c, r));
+                    }
+                    if let (Some(o), true) = (vel, r == c) {
+                        mat::set(u, V + r, o + c, T::one());
+                    }
+                }
+            }
+        }
+    }
+
+    /// The filter back at P₀ ([`Engine::initial_factor`]), in its own storage. The one
+    /// place the covariance restarts (configuration, reset, the solution's start), so the
+    /// board's image holds one copy of the restart.
+    fn restart_covariance(
+        kf: &mut Kalman<T, S>,
+        cfg: &EngineConfig<T>,
+        start_c_bs_n: Option<&Matrix3<T>>,
+    ) {
+        kf.restart_factored(cfg.variance_floor, static_states(cfg), |u, d| {
+            Self::initial_factor(cfg, start_c_bs_n, u, d)
+        });
     }
 
     /// The configuration in use.
@@ -992,6 +1034,14 @@ impl<T: Real, const S: usize> Engine<T, S> {
         let r0 = self.cfg.lever_arm_m;
         let q_bs_n = msg.q_bm_n * quat_exp(&self.misalignment);
         let lever_v = c_bm_n * msg.w_ib_bm.map_or(Vector3::zeros(), |w| w.cross(&r0));
+        // The start holds the master's smooth errors of this instant (see
+        // `initial_factor`); only layouts carrying those blocks restart, once per start.
+        if [Effect::MasterAttitudeError, Effect::MasterVelocityError]
+            .iter()
+            .any(|&e| self.cfg.augmentation.offset(e).is_some())
+        {
+            Self::restart_covariance(&mut self.kf, &self.cfg, Some(&dcm(&q_bs_n)));
+        }
         let nav = NavState {
             q_b_n: q_bs_n,
             v_n: msg.v_n + lever_v,
@@ -1191,6 +1241,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         Signature {
             c_bm_n: *c_bm_n,
             w_eb_bm: *w_eb_bm,
+            lever_v_n: c_bm_n * w_eb_bm.cross(&self.cfg.lever_arm_m),
             v_dot_n,
             w_nb_bs: w_ib_bs - c_bs_n.transpose() * (w_ie + w_en),
             w_dot_bs,
@@ -1334,11 +1385,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// The re-initialization itself: slave solution dropped (the next master message
     /// restarts it), covariance back to P₀, health counters kept, the reset counted.
     fn reset(&mut self) {
-        let cfg = self.cfg;
-        self.kf
-            .restart_factored(cfg.variance_floor, static_states(&cfg), |u, d| {
-                Self::initial_factor(&cfg, u, d)
-            });
+        Self::restart_covariance(&mut self.kf, &self.cfg, None);
         self.strapdown = None;
         self.buffer.clear();
         self.epoch = None;

@@ -393,3 +393,79 @@ fn the_first_period_is_predicted_before_the_second_master_is_matched() {
         assert!(u.variance > 10.0 * 1e-14, "{u:?}");
     }
 }
+
+/// The slave starts from the master's attitude and velocity as reported, so when the
+/// layout carries the master's smooth errors the slave's starting errors hold them:
+/// ψ₀ gains `Ĉ_bs^nᵀ φ_m` and δv₀ gains δv_m. P₀ must say so (cov(ψ, φ_m) = Ĉᵀ σ²,
+/// cov(δv, δv_m) = σ² I); left independent, the filter took the start's tilt as known to
+/// the white noise while it was off by the master's slow error (blind seeds handed their
+/// truth: `docs/model-learning.md`, session 9).
+#[test]
+fn the_start_holds_the_masters_smooth_errors_of_that_instant() {
+    use flexcal_core::augment::{Augmentation, Effect};
+    use flexcal_core::model::{PSI, V};
+    const S: usize = 27;
+    let (sa, sv) = (1e-4, 0.02);
+    let mut cfg = config();
+    cfg.augmentation = Augmentation::none()
+        .with(Effect::MasterAttitudeError, sa)
+        .unwrap()
+        .with(Effect::MasterVelocityError, sv)
+        .unwrap();
+    let (oa, ov) = (
+        cfg.augmentation
+            .offset(Effect::MasterAttitudeError)
+            .unwrap(),
+        cfg.augmentation
+            .offset(Effect::MasterVelocityError)
+            .unwrap(),
+    );
+    let q = UnitQuaternion::from_euler_angles(0.2, -0.1, 0.7);
+    let mut e = Engine::<f64, S>::new(cfg).unwrap();
+    let mut reports = StepReports::new();
+    // As `run_span` feeds it (IMU at 200 Hz, masters at 100 Hz), until the solution starts.
+    for i in 0..20 {
+        let t = i as f64 * 0.005;
+        e.push_imu(imu_at(t, 0.005), &mut reports).unwrap();
+        if i % 2 == 0 {
+            e.push_master(
+                MasterNav {
+                    q_bm_n: q,
+                    ..master_at(t)
+                },
+                &mut reports,
+            )
+            .unwrap();
+        }
+        if e.master_fate().initialized > 0 {
+            break;
+        }
+    }
+    assert_eq!(e.master_fate().initialized, 1, "{:?}", e.master_fate());
+    // The start's period is predicted and the next master matched in the same call.
+    // At rest the prediction rotates ψ by the Earth's rate and decays φ_m by e^{−T/τ}
+    // (parts in 10⁻⁴); with the start so tied, the attitude innovation ψ + J(δμ + θ) −
+    // Ĉᵀφ_m and the velocity innovation δv − δv_m do not depend on the master's errors,
+    // so the update leaves these covariances as P₀ has them. Without the tie the first
+    // one is a third of Ĉᵀσ² here.
+    assert!(e.counters().predictions <= 1, "{:?}", e.counters());
+    assert!(e.counters().master_matched <= 1, "{:?}", e.counters());
+    let p = e.filter().covariance();
+    let c_bs_n = q.to_rotation_matrix().into_inner(); // μ̂₀ = 0
+    for r in 0..3 {
+        for c in 0..3 {
+            let want = c_bs_n[(c, r)] * sa * sa;
+            let got = p[(PSI + r, oa + c)];
+            assert!(
+                (got - want).abs() <= 1e-3 * sa * sa,
+                "cov(ψ{r}, φ_m{c}) {got}, want {want}"
+            );
+            let want = if r == c { sv * sv } else { 0.0 };
+            let got = p[(V + r, ov + c)];
+            assert!(
+                (got - want).abs() <= 1e-3 * sv * sv,
+                "cov(δv{r}, δv_m{c}) {got}, want {want}"
+            );
+        }
+    }
+}

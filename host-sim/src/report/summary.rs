@@ -8,6 +8,21 @@ use serde_json::{json, Value};
 use std::io::Write;
 use std::path::Path;
 
+/// The final covariance of the nine calibrated quantities, with their order and units:
+/// the σ beside each estimate leave out the correlations (a horizontal accelerometer bias
+/// and the tilt it mimics, a gyro bias and the heading it drifts), which decide how far a
+/// combination of the estimates can be trusted and what the NEES weighs.
+fn calibrated_covariance(p: &nalgebra::SMatrix<f64, 9, 9>) -> Value {
+    let rows: Vec<[f64; 9]> = (0..9).map(|i| std::array::from_fn(|j| p[(i, j)])).collect();
+    json!({
+        "order": ["gyro_bias_x", "gyro_bias_y", "gyro_bias_z",
+                  "accel_bias_x", "accel_bias_y", "accel_bias_z",
+                  "misalignment_x", "misalignment_y", "misalignment_z"],
+        "units": ["rad/s", "rad/s", "rad/s", "m/s^2", "m/s^2", "m/s^2", "rad", "rad", "rad"],
+        "matrix": rows,
+    })
+}
+
 /// The `summary.json` document of one calibration; `flexure_source` says where the
 /// flexure model came from (configured, or identified from the recording).
 pub fn summary_json(
@@ -54,6 +69,7 @@ pub fn summary_json(
         "gyro_bias": last.gyro_bias, "gyro_bias_sigma": last.gyro_bias_sigma,
         "accel_bias": last.accel_bias, "accel_bias_sigma": last.accel_bias_sigma,
         "misalignment": last.misalignment, "misalignment_sigma": last.misalignment_sigma,
+        "calibrated_covariance": calibrated_covariance(&res.final_cov9),
         "innovations": {
             "count": accepted,
             "nis_mean": res.nis_mean(),
