@@ -86,6 +86,20 @@ impl<T: Real, const N: usize, const R: usize> Transition<T, N, R> {
         t
     }
 
+    /// Every row zero (none listed), for a caller that writes each of them with
+    /// [`Transition::set_row_at`] or [`Transition::set_row`]: built where it is declared
+    /// (the identity's rows of [`Transition::new`], written after the zeroing, made the
+    /// board copy the whole value once more).
+    #[inline(always)]
+    pub fn zeroed(index: [usize; R]) -> Self {
+        Self {
+            index,
+            values: [[T::zero(); N]; R],
+            cols: [[0; N]; R],
+            count: [0; R],
+        }
+    }
+
     /// Row `r` from `row` (dense), its non-zero columns listed.
     pub fn set_row(&mut self, r: usize, row: &[T; N]) {
         let mut at = [0usize; N];
@@ -114,7 +128,13 @@ impl<T: Real, const N: usize, const R: usize> Transition<T, N, R> {
         ) else {
             return;
         };
-        dst.fill(T::zero());
+        // Only the listed columns can be non-zero (every other was never written or was
+        // written zero): clearing them clears the row, without a pass over all N.
+        for &c in cols.get(..*count).unwrap_or(&[]) {
+            if let Some(e) = dst.get_mut(usize::from(c)) {
+                *e = T::zero();
+            }
+        }
         let mut n = 0;
         for &j in at {
             let v = value(j);
@@ -342,17 +362,27 @@ struct NoisePart<T, const N: usize> {
 }
 
 impl<T: Real, const N: usize> NoisePart<T, N> {
-    /// From `Q`'s upper triangle (row-major, written by `fill`): factored, a column's
-    /// non-zeros found and only they eliminated (Q is a diagonal and a few pairs). A pivot
-    /// that is not positive (a `Q` only semi-definite there) takes no column.
-    fn new(fill: impl FnOnce(&mut [[T; N]; N])) -> Self {
-        let mut q = Self {
+    /// All zero, for [`NoisePart::factor`] to fill in place (built and returned by value,
+    /// the factors cost the board a copy of the whole value, 1.6k instructions a time
+    /// update).
+    #[inline(always)]
+    fn zeroed() -> Self {
+        Self {
             w: [[T::zero(); N]; N],
             dq: [T::zero(); N],
             cols: [0; N],
             n: 0,
             first: [0; N],
-        };
+        }
+    }
+
+    /// From `Q`'s upper triangle (row-major, written by `fill` into `self` as
+    /// [`NoisePart::zeroed`] built it): factored, a column's non-zeros found and only they
+    /// eliminated (Q is a diagonal and a few pairs). A pivot that is not positive (a `Q`
+    /// only semi-definite there) takes no column.
+    #[inline(always)]
+    fn factor(&mut self, fill: impl FnOnce(&mut [[T; N]; N])) {
+        let q = self;
         fill(&mut q.w);
         let mut weight = [T::zero(); N];
         // Column j's non-zero rows, the first `n` (written before they are read).
@@ -428,7 +458,6 @@ impl<T: Real, const N: usize> NoisePart<T, N> {
             }
             *f = t as u8;
         }
-        q
     }
 
     fn at(&self, i: usize, j: usize) -> T {
@@ -1053,7 +1082,8 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         let floor = self.floor;
         let pos = self.pos;
         let internal = indices.filter_map(|i| pos.get(i).map(|&a| usize::from(a)));
-        let mut q = NoisePart::<T, N>::new(|w| {
+        let mut q = NoisePart::<T, N>::zeroed();
+        q.factor(|w| {
             for i in internal.clone() {
                 if let Some(e) = w.get_mut(i).and_then(|r| r.get_mut(i)) {
                     *e = floor;
@@ -1120,7 +1150,8 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         // Q_s = S⁻¹ Q S⁻¹ on the upper triangle (internal order), factored; the sum of
         // what went in says whether it is finite before anything changes.
         let mut check = T::zero();
-        let mut q = NoisePart::<T, N>::new(|w| {
+        let mut q = NoisePart::<T, N>::zeroed();
+        q.factor(|w| {
             for (i, &qd) in q_diag.iter().enumerate() {
                 let a = internal(i);
                 let v = qd * at(inv, a) * at(inv, a);
