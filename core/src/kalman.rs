@@ -1002,6 +1002,9 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// Scaled covariance element `P_s(i, j) = Σ_{k ≥ max(i, j)} U(i, k) D_k U(j, k)` (O(N)),
     /// `i` and `j` the internal positions.
     fn scaled_at(&self, i: usize, j: usize) -> T {
+        if i == j {
+            return self.scaled_diag(i);
+        }
         let (a, b) = (i.min(j), i.max(j));
         let (u, d) = (self.u.as_slice(), self.d.as_slice());
         let ue = |r: usize, c: usize| {
@@ -1014,6 +1017,20 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         let mut acc = T::zero();
         for (k, &dk) in d.iter().enumerate().skip(b) {
             acc += ue(a, k) * ue(b, k) * dk;
+        }
+        acc
+    }
+
+    /// [`Self::scaled_at`] on the diagonal, `P_s(b, b) = D_b + Σ_{k>b} U(b, k)² D_k`:
+    /// the same terms added in the same order (`1 · 1 · D_b` is `D_b`), row `b` of U
+    /// read with a stride instead of through a bounds check and a diagonal test per
+    /// element (the σ of every estimate the engine reports is one of these).
+    fn scaled_diag(&self, b: usize) -> T {
+        let (u, d) = (self.u.as_slice(), self.d.as_slice());
+        let mut acc = T::zero() + d.get(b).copied().unwrap_or_else(T::zero);
+        let row = u.get((b + 1) * N + b..).unwrap_or(&[]).iter().step_by(N.max(1));
+        for (&ubk, &dk) in row.zip(d.get(b + 1..).unwrap_or(&[])) {
+            acc += ubk * ubk * dk;
         }
         acc
     }
