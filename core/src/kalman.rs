@@ -1028,7 +1028,11 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     fn scaled_diag(&self, b: usize) -> T {
         let (u, d) = (self.u.as_slice(), self.d.as_slice());
         let mut acc = T::zero() + d.get(b).copied().unwrap_or_else(T::zero);
-        let row = u.get((b + 1) * N + b..).unwrap_or(&[]).iter().step_by(N.max(1));
+        let row = u
+            .get((b + 1) * N + b..)
+            .unwrap_or(&[])
+            .iter()
+            .step_by(N.max(1));
         for (&ubk, &dk) in row.zip(d.get(b + 1..).unwrap_or(&[])) {
             acc += ubk * ubk * dk;
         }

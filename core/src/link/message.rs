@@ -766,8 +766,7 @@ impl Message {
                 if !floats_ok {
                     return Err(PayloadError::NonFinite);
                 }
-                if !unit_norm(&m.q_bm_n)
-                    || m.lat_rad.abs() > core::f64::consts::FRAC_PI_2 + LAT_TOL
+                if !unit_norm(&m.q_bm_n) || m.lat_rad.abs() > core::f64::consts::FRAC_PI_2 + LAT_TOL
                 {
                     return Err(PayloadError::BadValue);
                 }

@@ -376,16 +376,48 @@ mod tests {
     fn check(x: f64) {
         let mut out = Vec::new();
         push_exp(&mut out, x);
-        assert_eq!(String::from_utf8(out).unwrap(), format!("{x:e}"), "{:#x}", x.to_bits());
+        assert_eq!(
+            String::from_utf8(out).unwrap(),
+            format!("{x:e}"),
+            "{:#x}",
+            x.to_bits()
+        );
     }
 
     #[test]
     fn push_exp_writes_what_format_e_writes() {
         for x in [
-            0.0, -0.0, 1.0, -1.0, 10.0, 0.1, 0.01, 123.0, 1234.5, 1e7, 1e15, 1e16, 1e17,
-            1.5e-5, 1e-5, 1e-6, 1e-7, 9.999999999999999e22, 5e-324, f64::MIN_POSITIVE,
-            f64::MAX, f64::MIN, f64::EPSILON, f64::NAN, f64::INFINITY, f64::NEG_INFINITY,
-            0.3, 2.0 / 3.0, 9.80665, 4.847539298591189e-6,
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            10.0,
+            0.1,
+            0.01,
+            123.0,
+            1234.5,
+            1e7,
+            1e15,
+            1e16,
+            1e17,
+            1.5e-5,
+            1e-5,
+            1e-6,
+            1e-7,
+            1e22,
+            1e23,
+            5e-324,
+            f64::MIN_POSITIVE,
+            f64::MAX,
+            f64::MIN,
+            f64::EPSILON,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            0.3,
+            2.0 / 3.0,
+            9.80665,
+            4.847539298591189e-6,
         ] {
             check(x);
         }
