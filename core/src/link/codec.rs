@@ -345,6 +345,7 @@ impl Decoder {
     }
 
     /// Unstuffs and checks the `len` buffered bytes.
+    #[inline(always)]
     fn decode(&mut self, len: usize) -> Result<Frame, DecodeError> {
         let stuffed = self.buf.get_mut(..len).ok_or(DecodeError::Oversize)?;
         let n = cobs::decode_in_place(stuffed).map_err(|_| DecodeError::Cobs)?;

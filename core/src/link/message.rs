@@ -990,6 +990,7 @@ impl Message {
     }
 
     /// Parses and validates a payload of the given kind.
+    #[inline(always)]
     pub fn read_payload(kind: MessageKind, payload: &[u8]) -> Result<Self, PayloadError> {
         if payload.len() != kind.payload_len() {
             return Err(PayloadError::BadLength);
@@ -999,6 +1000,7 @@ impl Message {
         Ok(msg)
     }
 
+    #[inline(always)]
     fn parse(kind: MessageKind, payload: &[u8]) -> Option<Result<Self, PayloadError>> {
         let mut r = Reader { rest: payload };
         let msg = match kind {
