@@ -924,8 +924,9 @@ impl<T: Real, const S: usize> Engine<T, S> {
             pos: nav.pos,
         };
         let model_phase = probe::enter(Phase::Model);
-        // Φ written in place (returned by value, it was copied once more per update).
-        let mut phi = model::Phi::<T, S>::new(model::PHI_ROWS);
+        // Φ written in place (returned by value, it was copied once more per update);
+        // `transition_into` writes every row, so it starts zeroed, not as the identity.
+        let mut phi = model::Phi::<T, S>::zeroed(model::PHI_ROWS);
         model::transition_into(
             &mut phi,
             &means,

@@ -86,6 +86,20 @@ impl<T: Real, const N: usize, const R: usize> Transition<T, N, R> {
         t
     }
 
+    /// Every row zero (none listed), for a caller that writes each of them with
+    /// [`Transition::set_row_at`] or [`Transition::set_row`]: built where it is declared
+    /// (the identity's rows of [`Transition::new`], written after the zeroing, made the
+    /// board copy the whole value once more).
+    #[inline(always)]
+    pub fn zeroed(index: [usize; R]) -> Self {
+        Self {
+            index,
+            values: [[T::zero(); N]; R],
+            cols: [[0; N]; R],
+            count: [0; R],
+        }
+    }
+
     /// Row `r` from `row` (dense), its non-zero columns listed.
     pub fn set_row(&mut self, r: usize, row: &[T; N]) {
         let mut at = [0usize; N];
@@ -114,7 +128,13 @@ impl<T: Real, const N: usize, const R: usize> Transition<T, N, R> {
         ) else {
             return;
         };
-        dst.fill(T::zero());
+        // Only the listed columns can be non-zero (every other was never written or was
+        // written zero): clearing them clears the row, without a pass over all N.
+        for &c in cols.get(..*count).unwrap_or(&[]) {
+            if let Some(e) = dst.get_mut(usize::from(c)) {
+                *e = T::zero();
+            }
+        }
         let mut n = 0;
         for &j in at {
             let v = value(j);
@@ -342,17 +362,27 @@ struct NoisePart<T, const N: usize> {
 }
 
 impl<T: Real, const N: usize> NoisePart<T, N> {
-    /// From `Q`'s upper triangle (row-major, written by `fill`): factored, a column's
-    /// non-zeros found and only they eliminated (Q is a diagonal and a few pairs). A pivot
-    /// that is not positive (a `Q` only semi-definite there) takes no column.
-    fn new(fill: impl FnOnce(&mut [[T; N]; N])) -> Self {
-        let mut q = Self {
+    /// All zero, for [`NoisePart::factor`] to fill in place (built and returned by value,
+    /// the factors cost the board a copy of the whole value, 1.6k instructions a time
+    /// update).
+    #[inline(always)]
+    fn zeroed() -> Self {
+        Self {
             w: [[T::zero(); N]; N],
             dq: [T::zero(); N],
             cols: [0; N],
             n: 0,
             first: [0; N],
-        };
+        }
+    }
+
+    /// From `Q`'s upper triangle (row-major, written by `fill` into `self` as
+    /// [`NoisePart::zeroed`] built it): factored, a column's non-zeros found and only they
+    /// eliminated (Q is a diagonal and a few pairs). A pivot that is not positive (a `Q`
+    /// only semi-definite there) takes no column.
+    #[inline(always)]
+    fn factor(&mut self, fill: impl FnOnce(&mut [[T; N]; N])) {
+        let q = self;
         fill(&mut q.w);
         let mut weight = [T::zero(); N];
         // Column j's non-zero rows, the first `n` (written before they are read).
@@ -428,7 +458,6 @@ impl<T: Real, const N: usize> NoisePart<T, N> {
             }
             *f = t as u8;
         }
-        q
     }
 
     fn at(&self, i: usize, j: usize) -> T {
@@ -973,6 +1002,9 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// Scaled covariance element `P_s(i, j) = Σ_{k ≥ max(i, j)} U(i, k) D_k U(j, k)` (O(N)),
     /// `i` and `j` the internal positions.
     fn scaled_at(&self, i: usize, j: usize) -> T {
+        if i == j {
+            return self.scaled_diag(i);
+        }
         let (a, b) = (i.min(j), i.max(j));
         let (u, d) = (self.u.as_slice(), self.d.as_slice());
         let ue = |r: usize, c: usize| {
@@ -985,6 +1017,24 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         let mut acc = T::zero();
         for (k, &dk) in d.iter().enumerate().skip(b) {
             acc += ue(a, k) * ue(b, k) * dk;
+        }
+        acc
+    }
+
+    /// [`Self::scaled_at`] on the diagonal, `P_s(b, b) = D_b + Σ_{k>b} U(b, k)² D_k`:
+    /// the same terms added in the same order (`1 · 1 · D_b` is `D_b`), row `b` of U
+    /// read with a stride instead of through a bounds check and a diagonal test per
+    /// element (the σ of every estimate the engine reports is one of these).
+    fn scaled_diag(&self, b: usize) -> T {
+        let (u, d) = (self.u.as_slice(), self.d.as_slice());
+        let mut acc = T::zero() + d.get(b).copied().unwrap_or_else(T::zero);
+        let row = u
+            .get((b + 1) * N + b..)
+            .unwrap_or(&[])
+            .iter()
+            .step_by(N.max(1));
+        for (&ubk, &dk) in row.zip(d.get(b + 1..).unwrap_or(&[])) {
+            acc += ubk * ubk * dk;
         }
         acc
     }
@@ -1053,7 +1103,8 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         let floor = self.floor;
         let pos = self.pos;
         let internal = indices.filter_map(|i| pos.get(i).map(|&a| usize::from(a)));
-        let mut q = NoisePart::<T, N>::new(|w| {
+        let mut q = NoisePart::<T, N>::zeroed();
+        q.factor(|w| {
             for i in internal.clone() {
                 if let Some(e) = w.get_mut(i).and_then(|r| r.get_mut(i)) {
                     *e = floor;
@@ -1120,7 +1171,8 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         // Q_s = S⁻¹ Q S⁻¹ on the upper triangle (internal order), factored; the sum of
         // what went in says whether it is finite before anything changes.
         let mut check = T::zero();
-        let mut q = NoisePart::<T, N>::new(|w| {
+        let mut q = NoisePart::<T, N>::zeroed();
+        q.factor(|w| {
             for (i, &qd) in q_diag.iter().enumerate() {
                 let a = internal(i);
                 let v = qd * at(inv, a) * at(inv, a);

@@ -169,8 +169,8 @@ pub const PHI_ROWS: [usize; ACTIVE] = [
     THD + 2,
 ];
 
-/// [`transition`] written into `phi`, which [`Phi::new`] built with [`PHI_ROWS`]: every
-/// row rewritten in place (the time update's Φ without a copy of it).
+/// [`transition`] written into `phi`, which [`Phi::new`] or [`Phi::zeroed`] built with
+/// [`PHI_ROWS`]: every row rewritten in place (the time update's Φ without a copy of it).
 pub fn transition_into<T: Real, const S: usize>(
     phi: &mut Phi<T, S>,
     m: &IntervalMeans<T>,

@@ -284,6 +284,29 @@ impl Decoder {
         self.discarding = false;
     }
 
+    /// A byte inside a frame, buffered (or dropped while discarding): `true`, and
+    /// [`Decoder::push`] would have returned `None`. `false` for a delimiter or a byte the
+    /// buffer has no room for, which [`Decoder::push`] then takes. The per-byte path
+    /// alone, for the caller to inline: most bytes end here (on the board, a call and a
+    /// returned `Option` per byte cost more than the buffering).
+    #[inline(always)]
+    pub fn take(&mut self, byte: u8) -> bool {
+        if byte == 0 {
+            return false;
+        }
+        if self.discarding {
+            return true;
+        }
+        match self.buf.get_mut(self.len) {
+            Some(slot) => {
+                *slot = byte;
+                self.len += 1;
+                true
+            }
+            None => false,
+        }
+    }
+
     /// Feeds one byte; returns a frame or an error when one ends here.
     pub fn push(&mut self, byte: u8) -> Option<Result<Frame, DecodeError>> {
         if byte != 0 {
@@ -322,6 +345,7 @@ impl Decoder {
     }
 
     /// Unstuffs and checks the `len` buffered bytes.
+    #[inline(always)]
     fn decode(&mut self, len: usize) -> Result<Frame, DecodeError> {
         let stuffed = self.buf.get_mut(..len).ok_or(DecodeError::Oversize)?;
         let n = cobs::decode_in_place(stuffed).map_err(|_| DecodeError::Cobs)?;

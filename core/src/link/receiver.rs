@@ -80,8 +80,20 @@ impl Receiver {
         }
     }
 
-    /// Feeds one byte (see [`Decoder::push`] for the guarantees).
+    /// Feeds one byte (see [`Decoder::push`] for the guarantees). A byte inside a frame
+    /// is buffered here, inlined into the caller ([`Decoder::take`]); the rest, a frame's
+    /// end above all, in [`Receiver::push_end`].
+    #[inline(always)]
     pub fn push(&mut self, byte: u8) -> Option<Result<Received, LinkError>> {
+        if self.decoder.take(byte) {
+            return None;
+        }
+        self.push_end(byte)
+    }
+
+    /// [`Receiver::push`] of a byte [`Decoder::take`] did not take.
+    #[inline(never)]
+    fn push_end(&mut self, byte: u8) -> Option<Result<Received, LinkError>> {
         let frame = match self.decoder.push(byte)? {
             Ok(frame) => frame,
             Err(e) => return Some(Err(LinkError::Decode(e))),
