@@ -10,7 +10,9 @@
 #   EFFECTS="none" scripts/blind-diagnose-survey.sh out/clean 300 $(seq 104 110)
 #
 # EFFECTS (space separated; default: none, each single effect, and time-delay,lever-arm-error)
-# chooses the cases; a comma joins effects drawn together. Uses target/release/flexcal
+# chooses the cases; a comma joins effects drawn together. CANDIDATES (comma separated,
+# e.g. the default eight and clock_drift) is passed to `diagnose --candidates` when set.
+# Uses target/release/flexcal
 # (build it first: cargo build --release -p flexcal-sim) unless FLEXCAL names another.
 set -euo pipefail
 out="${1:?OUT_DIR}"
@@ -28,7 +30,9 @@ for effect in "${effects[@]}"; do
     [[ $effect != none ]] && args+=(--effect "$effect")
     "$F" "${args[@]}" > /dev/null
     t0=$(date +%s.%N)
-    "$F" diagnose "$rec" --out "$rec-diag" > "$rec-diag.log" 2>&1 || true
+    dargs=(diagnose "$rec" --out "$rec-diag")
+    [[ -n ${CANDIDATES:-} ]] && dargs+=(--candidates "$CANDIDATES")
+    "$F" "${dargs[@]}" > "$rec-diag.log" 2>&1 || true
     t1=$(date +%s.%N)
     top=$(grep -E '^  round 1:' "$rec-diag.log" |
       sed -E 's/^  round 1: ([a-z_]+) \(Wald ([0-9.]+).*/\2 \1/' | sort -rn | head -n 1 || true)

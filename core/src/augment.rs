@@ -8,10 +8,11 @@
 //! [`Augmentation::master_error_correlation_s`], by default
 //! [`MASTER_ERROR_CORRELATION_S`]) and the block's prior σ as their stationary σ: a real
 //! master's errors are slow, not white, and a constant misalignment can only be told
-//! from them by their time behaviour. All but the delay stay in the filter's
-//! state, not fed back into the nominal solution, so their estimate and σ are read from
-//! the filter at any time; the delay's state is the error of the engine's nominal τ̂,
-//! fed back once known to 1 ms (`Engine::effect_estimate` adds the two). Conventions (the
+//! from them by their time behaviour. All but the clock blocks (`time_delay`,
+//! `clock_drift`) stay in the filter's state, not fed back into the nominal solution, so
+//! their estimate and σ are read from the filter at any time; a clock block's states are
+//! the errors of the engine's nominal τ̂ (and τ̂̇), fed back once known to 1 ms
+//! (`Engine::effect_estimate` adds the two). Conventions (the
 //! simulator injects the effects the same way):
 //!
 //! | effect | states | meaning | enters |
@@ -21,6 +22,7 @@
 //! | `accel_scale_factor` | `s_a` (3, –) | accelerometer measures `(I + diag s_a) f` | δv̇ += C diag(f) s_a |
 //! | `accel_misalignment` | `n_a` (rad) | as the gyro's, on `f` | δv̇ += C N_a f |
 //! | `time_delay` | `τ` (1, s) | the master message stamped `t` is the master at `t − τ` | z_v += v̇ τ, z_a += ω_nb τ, z_ω += ω̇ τ |
+//! | `clock_drift` | `[τ₀, τ̇]` (2: s, s/s) | the master message stamped `t` is the master at `t − τ₀ − τ̇ (t − t₀)`, `t₀` the engine's first message | the delay's columns times `[1, t − t₀]` |
 //! | `lever_arm_error` | `δr` (3, m, master body) | the true arm is `r0 + δr` | z_v += C_bm^n [ω_eb×] δr |
 //! | `gyro_g_sensitivity` | `G` (9, rad/s per m/s², row-major) | gyro measures `ω + G f` | ψ̇ += G f |
 //! | `lever_arm_coupling` | `δR` (9, m/rad, row-major) | the true bending is `R + δR` | z_v += C_bm^n ([ω_eb×] δR θ + δR θ̇) |
@@ -66,7 +68,15 @@ pub enum Effect {
     MasterAttitudeError,
     /// The master's smooth velocity error, ENU (m/s): Gauss-Markov.
     MasterVelocityError,
+    /// Master/slave clock drift: the delay at the engine's first message τ₀ (s) and its
+    /// rate τ̇ (s/s), the master late by `τ₀ + τ̇ (t − t₀)`. The time delay with a rate:
+    /// a layout carries at most one of the two.
+    ClockDrift,
 }
+
+/// The clock drift's rate state has the prior σ of its delay state over this span (s):
+/// with the delay's 0.1 s, 1e-3 s/s (1000 ppm, beyond any crystal's).
+pub const CLOCK_DRIFT_PRIOR_SPAN_S: f64 = 100.0;
 
 impl Effect {
     /// Every candidate, in the order the diagnosis tries them.
@@ -80,6 +90,26 @@ impl Effect {
         Effect::GyroGSensitivity,
         Effect::LeverArmCoupling,
     ];
+
+    /// Candidates the diagnosis tries only when asked (`flexcal diagnose --candidates`):
+    /// the clock drift, which on a constant 10 ms delay at 120 s was named in the delay's
+    /// place (`docs/diagnosis.md`, "Clock drift: results").
+    pub const OPT_IN: [Effect; 1] = [Effect::ClockDrift];
+
+    /// Whether the block models the master's clock (`time_delay`, `clock_drift`): the
+    /// matching time follows its estimate in closed loop.
+    pub const fn is_clock(self) -> bool {
+        matches!(self, Effect::TimeDelay | Effect::ClockDrift)
+    }
+
+    /// The prior σ of the block's state `k` per unit of the block's prior σ: 1 but for
+    /// the clock drift's rate, `1 / CLOCK_DRIFT_PRIOR_SPAN_S` (per second).
+    pub fn state_prior_scale(self, k: usize) -> f64 {
+        match (self, k) {
+            (Effect::ClockDrift, 1) => 1.0 / CLOCK_DRIFT_PRIOR_SPAN_S,
+            _ => 1.0,
+        }
+    }
 
     /// The master's smooth errors: blocks of the noise model (chosen by the model
     /// learner), not sensor or installation effects the diagnosis looks for.
@@ -98,6 +128,7 @@ impl Effect {
     pub const fn states(self) -> usize {
         match self {
             Effect::TimeDelay => 1,
+            Effect::ClockDrift => 2,
             Effect::GyroGSensitivity | Effect::LeverArmCoupling => 9,
             _ => 3,
         }
@@ -116,12 +147,14 @@ impl Effect {
             Effect::LeverArmCoupling => "lever_arm_coupling",
             Effect::MasterAttitudeError => "master_attitude_error",
             Effect::MasterVelocityError => "master_velocity_error",
+            Effect::ClockDrift => "clock_drift",
         }
     }
 
-    /// SI unit of the block's states.
+    /// SI unit of the block's states (the clock drift's: of its delay; its rate is in s/s).
     pub const fn unit(self) -> &'static str {
         match self {
+            Effect::ClockDrift => "s",
             Effect::GyroScaleFactor | Effect::AccelScaleFactor => "1",
             Effect::GyroMisalignment | Effect::AccelMisalignment => "rad",
             Effect::TimeDelay => "s",
@@ -138,6 +171,7 @@ impl Effect {
         Self::ALL
             .iter()
             .chain(&Self::MASTER_ERRORS)
+            .chain(&Self::OPT_IN)
             .copied()
             .find(|e| e.name() == name)
     }
@@ -155,6 +189,7 @@ impl Effect {
             Effect::LeverArmCoupling => 8,
             Effect::MasterAttitudeError => 9,
             Effect::MasterVelocityError => 10,
+            Effect::ClockDrift => 11,
         }
     }
 
@@ -163,6 +198,7 @@ impl Effect {
         Self::ALL
             .iter()
             .chain(&Self::MASTER_ERRORS)
+            .chain(&Self::OPT_IN)
             .copied()
             .find(|e| e.code() == code)
     }
@@ -170,10 +206,11 @@ impl Effect {
     /// The smallest magnitude (SI, any state of the block) the diagnosis reports the
     /// effect at, however significant. Zero except for the delay: its estimate carries a
     /// bias of up to +0.6 ms on simulated complete models (`docs/diagnosis.md`, Open;
-    /// the floor is set from that measurement at 300 s, not derived).
+    /// the floor is set from that measurement at 300 s, not derived). For the clock
+    /// drift it is the floor of the delay's change over the recording (`|τ̇| × span`).
     pub fn resolution_floor(self) -> f64 {
         match self {
-            Effect::TimeDelay => 5e-4,
+            Effect::TimeDelay | Effect::ClockDrift => 5e-4,
             _ => 0.0,
         }
     }
@@ -182,9 +219,11 @@ impl Effect {
     /// 1 mrad, 0.1 s, 2 m, 100 °/h per g, 100 m/rad. The filter's evidence for an effect
     /// is its estimate against its posterior σ, which a wide prior leaves to the data.
     /// For the master's errors it is their stationary σ, a model quantity (10″, 2 cm/s
-    /// here; the learner sets it from the data).
+    /// here; the learner sets it from the data). The clock drift's is its delay's (its
+    /// rate's: `state_prior_scale`).
     pub fn default_prior_sigma(self) -> f64 {
         match self {
+            Effect::ClockDrift => 0.1,
             Effect::GyroScaleFactor | Effect::AccelScaleFactor => 1e-3,
             Effect::GyroMisalignment | Effect::AccelMisalignment => 1e-3,
             Effect::TimeDelay => 0.1,
@@ -211,7 +250,8 @@ pub struct Block<T> {
 /// Why a layout could not be built.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum AugmentError {
-    /// The effect is already in the layout.
+    /// The effect is already in the layout (or, for a clock block, the other one:
+    /// `time_delay` and `clock_drift` model the same clock).
     Duplicate,
     /// The layout carries `MAX_EFFECTS` effects already.
     Full,
@@ -264,7 +304,9 @@ impl<T: Real> Augmentation<T> {
         if !(prior_sigma > T::zero() && prior_sigma.is_finite()) {
             return Err(AugmentError::BadPrior);
         }
-        if self.offset(effect).is_some() {
+        if self.offset(effect).is_some()
+            || (effect.is_clock() && self.blocks().any(|b| b.effect.is_clock()))
+        {
             return Err(AugmentError::Duplicate);
         }
         let offset = N + self.states();
@@ -371,6 +413,7 @@ pub fn add_dynamics<T: Real, const R: usize, const S: usize>(
             Effect::MasterAttitudeError
             | Effect::MasterVelocityError
             | Effect::TimeDelay
+            | Effect::ClockDrift
             | Effect::LeverArmError
             | Effect::LeverArmCoupling => {}
         }
@@ -433,6 +476,9 @@ pub struct Signature<T: Real> {
     pub theta: Vector3<T>,
     /// See `theta`.
     pub theta_rate: Vector3<T>,
+    /// Time of the master message since the clock's reference `t₀`, the engine's first
+    /// master message (s): the clock drift's rate column is its delay column times it.
+    pub clock_dt: T,
 }
 
 /// Which matching measurement a row belongs to.
@@ -474,6 +520,16 @@ pub fn add_measurement<T: Real, const S: usize>(
             (Effect::TimeDelay, Channel::Velocity) => add_columns(rows, o, &sig.v_dot_n),
             (Effect::TimeDelay, Channel::Attitude) => add_columns(rows, o, &sig.w_nb_bs),
             (Effect::TimeDelay, Channel::AngularRate) => add_columns(rows, o, &sig.w_dot_bs),
+            (Effect::ClockDrift, _) => {
+                // δτ(t) = δτ₀ + δτ̇ (t − t₀): the delay's column, and it times t − t₀.
+                let col = match channel {
+                    Channel::Velocity => sig.v_dot_n,
+                    Channel::Attitude => sig.w_nb_bs,
+                    Channel::AngularRate => sig.w_dot_bs,
+                };
+                add_columns(rows, o, &col);
+                add_columns(rows, o + 1, &(col * sig.clock_dt));
+            }
             (Effect::GyroScaleFactor, Channel::AngularRate) => {
                 add_columns(rows, o, &Matrix3::from_diagonal(&sig.w_ib_bs))
             }
@@ -530,6 +586,19 @@ mod tests {
             a.with(Effect::AccelScaleFactor, -1.0).unwrap_err(),
             AugmentError::BadPrior
         );
+        // One clock per layout: the drift carries the delay.
+        assert_eq!(
+            a.with(Effect::ClockDrift, 0.1).unwrap_err(),
+            AugmentError::Duplicate
+        );
+        let c = Augmentation::<f64>::none()
+            .with(Effect::ClockDrift, 0.1)
+            .unwrap();
+        assert_eq!(c.dimension(), N + 2);
+        assert_eq!(
+            c.with(Effect::TimeDelay, 0.1).unwrap_err(),
+            AugmentError::Duplicate
+        );
     }
 
     #[test]
@@ -550,7 +619,7 @@ mod tests {
             assert_eq!(Effect::from_name(e.name()), Some(e));
             assert_eq!(Effect::from_code(e.code()), Some(e));
         }
-        for e in Effect::MASTER_ERRORS {
+        for e in Effect::MASTER_ERRORS.into_iter().chain(Effect::OPT_IN) {
             assert_eq!(Effect::from_name(e.name()), Some(e));
             assert_eq!(Effect::from_code(e.code()), Some(e));
         }

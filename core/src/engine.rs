@@ -4,7 +4,7 @@
 //! board (f32) and the desktop (f64).
 
 use crate::align::{AlignBuffer, AlignError, SlaveAt, Snapshot};
-use crate::augment::{self, Augmentation, Channel, Effect, Signature};
+use crate::augment::{self, Augmentation, Channel, Effect, Signature, CLOCK_DRIFT_PRIOR_SPAN_S};
 use crate::earth::{self, Position};
 use crate::flexure::FlexureModel;
 use crate::kalman::{Health, Kalman, ScalarUpdate};
@@ -338,6 +338,12 @@ pub struct Engine<T: Real, const S: usize = N> {
     /// Nominal master delay τ̂ (s) when the layout carries `time_delay`: a master
     /// message stamped t is matched with the slave at t − τ̂ (closed loop, like the biases).
     delay_s: f64,
+    /// Nominal rate of the master delay τ̂̇ (s/s) when the layout carries `clock_drift`:
+    /// the message stamped t is matched at t − τ̂ − τ̂̇ (t − t₀) (closed loop too).
+    delay_rate: f64,
+    /// The clock's reference t₀: the stamp of the first master message that started
+    /// the solution (kept across resets, cleared by `reconfigure`).
+    clock_t0: Option<f64>,
     /// Whether the calibrated quantities are frozen (`freeze_calibration`).
     frozen: bool,
     /// The master's last angular rates `(t, ω_ib^bm)` (for the delay's rate column).
@@ -350,8 +356,18 @@ pub const DELAY_FEEDBACK_SIGMA_S: f64 = 1e-3;
 /// Master angular rates kept for the slope that forms the delay's rate column.
 pub const RATE_HISTORY: usize = 64;
 
+/// Time span of the master rates the delay's rate column is fitted to (s): the 64 rates
+/// of a 100 Hz master, with which the column was built (`docs/diagnosis.md`).
+pub const RATE_WINDOW_S: f64 = 0.645;
+
+/// Fewest master rates in `RATE_WINDOW_S` for the rate column (a parabola needs three).
+pub const RATE_MIN: usize = 5;
+
 /// Largest master delay the engine follows (s): within the alignment buffer's reach.
 pub const MAX_DELAY_S: f64 = 0.25;
+
+/// Largest clock drift the engine follows (s/s): 1 %, far beyond any clock's.
+pub const MAX_DELAY_RATE: f64 = 1e-2;
 
 /// What one call of `push_imu`, `push_master` or `flush` led to: the master messages it
 /// matched. Kilobytes in size (`PENDING_DEPTH` reports of nine scalar updates): the caller
@@ -418,6 +434,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
             fate: MasterFate::default(),
             gated_streaks: [0; 3],
             delay_s: 0.0,
+            delay_rate: 0.0,
+            clock_t0: None,
             past_master_rates: Deque::new(),
             frozen: false,
             cfg,
@@ -459,6 +477,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
         self.fate = MasterFate::default();
         self.gated_streaks = [0; 3];
         self.delay_s = cfg.initial_delay_s;
+        self.delay_rate = 0.0;
+        self.clock_t0 = None;
         self.past_master_rates.clear();
         self.frozen = false;
         self.cfg = cfg;
@@ -533,7 +553,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
         // Augmented blocks: their priors; states past them are inert (unit variance).
         for b in cfg.augmentation.blocks() {
             for k in 0..b.effect.states() {
-                set_d(b.offset + k, sq(b.prior_sigma));
+                let scale = T::of(b.effect.state_prior_scale(k));
+                set_d(b.offset + k, sq(b.prior_sigma * scale));
             }
         }
         for i in cfg.augmentation.dimension()..S {
@@ -656,9 +677,14 @@ impl<T: Real, const S: usize> Engine<T, S> {
             *v = vget(&x, offset + k);
             *s = self.kf.sigma(offset + k);
         }
-        if effect == Effect::TimeDelay {
+        if effect.is_clock() {
             if let Some(v) = e.value.first_mut() {
                 *v += T::of(self.delay_s);
+            }
+        }
+        if effect == Effect::ClockDrift {
+            if let Some(v) = e.value.get_mut(1) {
+                *v += T::of(self.delay_rate);
             }
         }
         Some(e)
@@ -799,7 +825,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// states belong to the epoch that ends the period containing it (`flexure_lag`), so
     /// the slave goes on to that epoch first.
     fn needed_until(&self, t: f64) -> f64 {
-        let t_s = t - self.delay_s;
+        let t_s = t - self.delay_at(t);
         if !self.has_delay() {
             return t_s;
         }
@@ -818,9 +844,21 @@ impl<T: Real, const S: usize> Engine<T, S> {
         }
     }
 
-    /// Whether the layout carries the master delay (matching at t − τ̂, epoch-consistent).
+    /// Whether the layout carries the master delay (matching at t − τ̂, epoch-consistent):
+    /// `time_delay` or `clock_drift`.
     fn has_delay(&self) -> bool {
-        self.cfg.augmentation.offset(Effect::TimeDelay).is_some()
+        self.cfg.augmentation.blocks().any(|b| b.effect.is_clock())
+    }
+
+    /// Time of the master stamp `t` since the clock's reference t₀ (0 before the start).
+    fn clock_dt(&self, t: f64) -> f64 {
+        self.clock_t0.map_or(0.0, |t0| t - t0)
+    }
+
+    /// The nominal delay of the master message stamped `t`: τ̂ + τ̂̇ (t − t₀), within
+    /// ±`MAX_DELAY_S` (τ̂̇ is zero without `clock_drift`).
+    fn delay_at(&self, t: f64) -> f64 {
+        (self.delay_s + self.delay_rate * self.clock_dt(t)).clamp(-MAX_DELAY_S, MAX_DELAY_S)
     }
 
     /// How long before the flexure states' epoch (the last time update) slave time
@@ -1031,6 +1069,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// attitude (through μ̂₀), velocity (with the lever arm) and position; the buffered
     /// increments after that time are left to `catch_up`.
     fn initialize(&mut self, msg: &MasterNav<T>) -> Start {
+        // The clock drift's reference: the first start (a reset keeps it, and τ̂ with it).
+        self.clock_t0.get_or_insert(msg.t);
         let c_bm_n = dcm(&msg.q_bm_n);
         let r0 = self.cfg.lever_arm_m;
         let q_bs_n = msg.q_bm_n * quat_exp(&self.misalignment);
@@ -1170,25 +1210,33 @@ impl<T: Real, const S: usize> Engine<T, S> {
         }
     }
 
-    /// The master's angular acceleration at its newest kept rate (rad/s², master body):
-    /// the derivative there of a least-squares parabola through the kept rates (a
-    /// straight line's slope would belong to the window's middle, `RATE_HISTORY / 2`
-    /// periods late). Zero until `RATE_HISTORY` rates spanning no gap are kept.
-    fn master_rate_slope(&self) -> Vector3<T> {
+    /// The master's angular acceleration at `t_msg`, the stamp of the message being
+    /// matched (rad/s², master body): the derivative there of a least-squares parabola
+    /// through the kept rates of the last `RATE_WINDOW_S` (a straight line's slope would
+    /// belong to the window's middle). The window is a time, not a count: at 10 Hz the
+    /// 64 rates spanned 6.4 s, longer than a ship's roll period, and the parabola's
+    /// slope was no angular acceleration (a constant 17 ms delay, blind draw 102 with a
+    /// 10 Hz master: 13.75 ± 0.04 ms with the rate channel, 17.00 ± 0.07 without it).
+    /// Zero until the window is covered by at least `RATE_MIN` rates spanning no gap.
+    fn master_rate_slope(&self, t_msg: f64) -> Vector3<T> {
         let rates = &self.past_master_rates;
-        let n = rates.len();
-        let (Some(&(t0, _)), Some(&(t1, _))) = (rates.front(), rates.back()) else {
+        let (Some(&(oldest, _)), Some(&(t1, _))) = (rates.front(), rates.back()) else {
             return Vector3::zeros();
         };
+        let from = t1 - RATE_WINDOW_S;
+        let window = || rates.iter().filter(move |r| r.0 >= from);
+        let n = window().count();
+        let t0 = window().next().map_or(t1, |r| r.0);
+        let covered = rates.len() == RATE_HISTORY || oldest < from;
         let span_ok = t1 - t0 <= 1.5 * n.saturating_sub(1) as f64 * self.cfg.filter_period_s;
-        if n < RATE_HISTORY || !span_ok || t1 <= t0 {
+        if n < RATE_MIN || !covered || !span_ok || t1 <= t0 {
             return Vector3::zeros();
         }
         // Normal equations of w = a + b u + c u², u = t − t̄ (f64 sums, per-axis right sides).
-        let t_mean = rates.iter().map(|r| r.0).sum::<f64>() / n as f64;
+        let t_mean = window().map(|r| r.0).sum::<f64>() / n as f64;
         let mut m = nalgebra::Matrix3::<f64>::zeros();
         let mut rhs = nalgebra::Matrix3::<f64>::zeros();
-        for &(t, w) in rates.iter() {
+        for &(t, w) in window() {
             let u = t - t_mean;
             let basis = nalgebra::Vector3::new(1.0, u, u * u);
             m += basis * basis.transpose();
@@ -1200,7 +1248,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         };
         // Rows of `coef`: a, b, c; columns: axes.
         let coef = inv * rhs;
-        let u_end = t1 - t_mean;
+        let u_end = t_msg - t_mean;
         Vector3::from_fn(|axis, _| {
             T::of(mat::get(&coef, 1, axis) + 2.0 * u_end * mat::get(&coef, 2, axis))
         })
@@ -1210,6 +1258,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// Earth model at the master's position.
     fn signature(
         &self,
+        t: f64,
         t_s: f64,
         slave: &SlaveAt<T>,
         here: &earth::Local<T>,
@@ -1227,7 +1276,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         // innovation. Noise in this column biases the delay even from past messages (the
         // flexure states carry their noise too), hence a long window.
         let w_dot_bs = if self.has_delay() {
-            exp_so3(&self.misalignment).transpose() * self.master_rate_slope()
+            exp_so3(&self.misalignment).transpose() * self.master_rate_slope(t)
         } else {
             Vector3::zeros()
         };
@@ -1251,13 +1300,14 @@ impl<T: Real, const S: usize> Engine<T, S> {
             c_bs_n,
             theta: block(TH) - block(THD) * T::of(self.flexure_lag(t_s)),
             theta_rate: block(THD),
+            clock_dt: T::of(self.clock_dt(t)),
         }
     }
 
     fn match_master(&mut self, msg: &MasterNav<T>) -> Result<MatchReport<T>, AlignError> {
         // The master's state belongs to the slave's time t − τ̂ (τ̂ = 0 without the delay block).
         let _phase = probe::enter(Phase::Matching);
-        let t_s = msg.t - self.delay_s;
+        let t_s = msg.t - self.delay_at(msg.t);
         let slave = self.buffer.at(t_s)?;
         let c_bm_n = dcm(&msg.q_bm_n);
         let mut report = MatchReport {
@@ -1271,7 +1321,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
         let here = earth::Local::at(&msg.pos);
         let (w_eb, w_eb_var) = self.master_rate_wrt_earth(msg, &here, &c_bm_n);
         let aug = self.cfg.augmentation;
-        let sig = (!aug.is_empty()).then(|| self.signature(t_s, &slave, &here, &c_bm_n, &w_eb));
+        let sig =
+            (!aug.is_empty()).then(|| self.signature(msg.t, t_s, &slave, &here, &c_bm_n, &w_eb));
         // The flexure states belong to the last epoch, `lag` after the matching time:
         // the measurement sees θ(t_s) = θ − lag θ̇ (exact for a flexure linear over the
         // period). Zero without a delay in the layout (matching at the epoch).
@@ -1420,6 +1471,22 @@ impl<T: Real, const S: usize> Engine<T, S> {
             let tau = self.delay_s + vget(&x, o).to_f64();
             self.delay_s = tau.clamp(-MAX_DELAY_S, MAX_DELAY_S);
             self.kf.reset_states(o..o + 1);
+        }
+        // The clock drift's pair once the delay it gives is known to 1 ms now and over
+        // the next `CLOCK_DRIFT_PRIOR_SPAN_S` (σ bounded by σ(τ₀) + Δ σ(τ̇), the
+        // correlation left out, Δ at least that span: near t₀ the rate is not yet known
+        // however well the delay is, and a rate fed back early moves every later
+        // matching time by its error).
+        if let Some(o) = self.cfg.augmentation.offset(Effect::ClockDrift) {
+            let dt = self.clock_dt(t).abs().max(CLOCK_DRIFT_PRIOR_SPAN_S);
+            let sigma = self.kf.sigma(o).to_f64() + dt * self.kf.sigma(o + 1).to_f64();
+            if sigma < DELAY_FEEDBACK_SIGMA_S {
+                let tau = self.delay_s + vget(&x, o).to_f64();
+                let rate = self.delay_rate + vget(&x, o + 1).to_f64();
+                self.delay_s = tau.clamp(-MAX_DELAY_S, MAX_DELAY_S);
+                self.delay_rate = rate.clamp(-MAX_DELAY_RATE, MAX_DELAY_RATE);
+                self.kf.reset_states(o..o + 2);
+            }
         }
     }
 }

@@ -164,14 +164,20 @@ fn positive_f64() -> impl Strategy<Value = f64> {
     POSITIVE | NORMAL | SUBNORMAL
 }
 
-/// A layout: distinct effects in any order, `min..=MAX_EFFECTS` of them.
+/// A layout: distinct effects in any order, `min..=MAX_EFFECTS` of them, at most one of
+/// the two clock blocks (`time_delay`, `clock_drift`: one clock).
 fn layout(min: usize) -> impl Strategy<Value = Vec<Effect>> {
     let all: Vec<Effect> = Effect::ALL
         .iter()
         .chain(&Effect::MASTER_ERRORS)
+        .chain(&Effect::OPT_IN)
         .copied()
         .collect();
-    prop::sample::subsequence(all, min..=MAX_EFFECTS).prop_shuffle()
+    prop::sample::subsequence(all, min..=MAX_EFFECTS)
+        .prop_filter("one clock block", |l| {
+            l.iter().filter(|e| e.is_clock()).count() <= 1
+        })
+        .prop_shuffle()
 }
 
 fn config() -> impl Strategy<Value = ConfigMsg> {
@@ -503,7 +509,9 @@ fn expected_augmentation(bytes: &[u8; 21]) -> Result<(), EffectsError> {
     }
     let used = usize::from(count);
     for i in 0..used {
-        if (0..i).any(|j| slot(j).0 == slot(i).0) {
+        // Two clock blocks (`time_delay`, `clock_drift`) are one clock twice.
+        let clock = |c: u8| Effect::from_code(c).is_some_and(Effect::is_clock);
+        if (0..i).any(|j| slot(j).0 == slot(i).0 || (clock(slot(j).0) && clock(slot(i).0))) {
             return Err(EffectsError::Duplicate { code: slot(i).0 });
         }
     }
@@ -519,7 +527,7 @@ fn expected_augmentation(bytes: &[u8; 21]) -> Result<(), EffectsError> {
 /// Bytes for the augmentation part: mostly plausible (known codes, small counts, sane
 /// priors), sometimes anything.
 fn augmentation_bytes() -> impl Strategy<Value = [u8; 21]> {
-    let code = prop_oneof![4 => 1u8..=8, 1 => Just(0u8), 1 => any::<u8>()];
+    let code = prop_oneof![4 => 1u8..=11, 1 => Just(0u8), 1 => any::<u8>()];
     let prior = prop_oneof![
         4 => positive_f32(),
         1 => Just(0.0f32),

@@ -9,6 +9,9 @@
 //! truth, in the engine from the sensed force and the master's past rates). Second-order
 //! terms are ~ω̈τ/ω̇ ≈ 1e-4 relative: tolerance 1e-3 of the column's largest entry.
 //! Lever-arm error: the residual is linear in δr, so the difference must match to 1e-9.
+//! Clock drift: the master of `t − τ₀ − τ̇ (t − t₀)`; the central differences over τ₀
+//! (±1e-4 s) and over τ̇ (±1e-4 s / (t − t₀), the same delay change) against the drift's
+//! two columns, with the same tolerance as the delay's.
 
 use flexcal_core::augment::{self, Augmentation, Channel, Effect, Signature};
 use flexcal_core::earth::{self, Position};
@@ -81,6 +84,7 @@ fn residuals(fx: &Fixed, r0_declared: &Vector3<f64>, t: f64, tau: f64) -> [Vecto
     ]
 }
 
+/// The signature at `t`, the clock's reference t₀ = 0 (`clock_dt` = t).
 fn signature(fx: &Fixed, t: f64) -> Signature<f64> {
     let h = 1e-4;
     let s = slave(fx, t);
@@ -101,6 +105,7 @@ fn signature(fx: &Fixed, t: f64) -> Signature<f64> {
         c_bs_n: s.c_bs_n,
         theta: Vector3::zeros(),
         theta_rate: Vector3::zeros(),
+        clock_dt: t,
     }
 }
 
@@ -138,6 +143,48 @@ fn delay_columns_match_the_delayed_master() {
                 "{} delay column at t = {t}: model {col:?}, finite difference {fd:?}",
                 names[c]
             );
+        }
+    }
+}
+
+#[test]
+fn clock_drift_columns_match_a_drifting_master_clock() {
+    let fx = fixed(Vector3::new(10.0, 4.0, 15.0));
+    let aug = Augmentation::none().with(Effect::ClockDrift, 0.1).unwrap();
+    let o = aug.offset(Effect::ClockDrift).unwrap();
+    let names = ["velocity", "attitude", "angular rate"];
+    // t₀ = 0: the delay of the master matched at t is τ₀ + τ̇ t.
+    for t in [41.3, 94.7, 258.2] {
+        let sig = signature(&fx, t);
+        let h = 1e-4;
+        for (state, step) in [(0, h), (1, h / t)] {
+            let delay = step * if state == 0 { 1.0 } else { t };
+            let zp = residuals(&fx, &fx.r0, t, delay);
+            let zm = residuals(&fx, &fx.r0, t, -delay);
+            for (c, channel) in [Channel::Velocity, Channel::Attitude, Channel::AngularRate]
+                .into_iter()
+                .enumerate()
+            {
+                let fd = (zp[c] - zm[c]) / (2.0 * step);
+                let rows = columns(&aug, channel, &sig);
+                let col = Vector3::new(rows[0][o + state], rows[1][o + state], rows[2][o + state]);
+                let tol = 1e-3 * col.amax() + 1e-12;
+                assert!(
+                    col.amax() > 0.0 && (fd - col).amax() <= tol,
+                    "{} column of state {state} at t = {t}: model {col:?}, finite difference {fd:?}",
+                    names[c]
+                );
+            }
+        }
+    }
+    // The drift's delay column is the time delay's.
+    let delay = Augmentation::none().with(Effect::TimeDelay, 0.1).unwrap();
+    let sig = signature(&fx, 4.7);
+    for channel in [Channel::Velocity, Channel::Attitude, Channel::AngularRate] {
+        let a = columns(&aug, channel, &sig);
+        let b = columns(&delay, channel, &sig);
+        for k in 0..3 {
+            assert_eq!(a[k][o], b[k][delay.offset(Effect::TimeDelay).unwrap()]);
         }
     }
 }

@@ -1,6 +1,6 @@
 //! The simulator's injected effects that the filter's 21-state model does not
-//! contain (accelerometer non-orthogonality, gyro g-sensitivity, master delay,
-//! lever-arm error, master velocity wave) against hand computations, their values in
+//! contain (accelerometer non-orthogonality, gyro g-sensitivity, master delay, master
+//! clock drift, lever-arm error, master velocity wave) against hand computations, their values in
 //! `truth.csv`, and a default scenario's output unchanged bit for bit.
 //!
 //! Most checks simulate a scenario twice, with and without one effect, with all noise,
@@ -100,6 +100,51 @@ fn master_delay_shifts_master_truth_back_by_tau() {
         let c = late.motion.attitude(t_valid).c_bm_n;
         let expected = UnitQuaternion::from_matrix(&c);
         assert!(angle(&q(m), &expected) < 1e-12, "message {k}");
+    }
+}
+
+/// A drifting master clock (`master_delay_rate` τ̇, here with an offset τ₀ too): the
+/// message stamped `t` is the master of `t − τ₀ − τ̇ t`. Its attitude at every stamp is
+/// the closed-form motion's there; where the delay is a whole number of master periods
+/// (τ̇ = 0.002 s/s, τ₀ = 0.005 s: 0.02 s at t = 7.5 s, 0.03 s at t = 12.5 s) the whole
+/// message — attitude, rate, velocity, position — is the undelayed run's that many
+/// periods earlier. The stamps and the slave IMU do not change.
+#[test]
+fn clock_drift_delays_the_master_by_its_growing_delay() {
+    let mut base = quiet();
+    base.motion.heading_deg = 30.0;
+    base.motion.speed_mps = 6.0;
+    let mut drift = base.clone();
+    drift.undeclared.master_delay_s = 0.005;
+    drift.undeclared.master_delay_rate = 0.002;
+    let (b, d) = (run(&base), run(&drift));
+    assert_eq!(b.imu, d.imu);
+    assert_eq!(b.master.len(), d.master.len());
+    for (k, m) in d.master.iter().enumerate() {
+        assert_eq!(m.t, b.master[k].t);
+        let tau = 0.005 + 0.002 * m.t;
+        let c = drift.motion.attitude(m.t - tau).c_bm_n;
+        let expected = UnitQuaternion::from_matrix(&c);
+        assert!(angle(&q(m), &expected) < 1e-12, "attitude at {}", m.t);
+    }
+    for (t, shift) in [(7.5, 2), (12.5, 3)] {
+        let k = (t * 100.0_f64).round() as usize;
+        let (m, m0) = (&d.master[k], &b.master[k - shift]);
+        assert!((m.t - t).abs() < 1e-9);
+        assert!(angle(&q(m), &q(m0)) < 1e-12, "attitude at {t}");
+        let w = max_diff(
+            &m.omega_ib_bm_radps.unwrap(),
+            &m0.omega_ib_bm_radps.unwrap(),
+        );
+        assert!(w < 1e-13, "rate at {t}: {w}");
+        assert!(max_diff(&m.v_n_mps, &m0.v_n_mps) < 1e-15);
+        let p = max_diff(
+            &[m.lat_deg, m.lon_deg, m.height_m],
+            &[m0.lat_deg, m0.lon_deg, m0.height_m],
+        );
+        assert!(p < 1e-9, "position at {t}: {p}");
+        // Not the constant delay's message: the drift moved it by a period or more.
+        assert!(angle(&q(m), &q(&b.master[k])) > 1e-4);
     }
 }
 
@@ -260,6 +305,7 @@ fn truth_columns_hold_injected_values() {
     imu.accel_nonorthogonality_urad = [-40.0, 50.0, 60.0];
     imu.gyro_g_sensitivity_deg_h_per_g = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0];
     sc.undeclared.master_delay_s = 0.02;
+    sc.undeclared.master_delay_rate = 1e-4;
     sc.undeclared.lever_arm_error_m = [0.3, -0.3, 0.25];
     let rec = run(&sc);
     let dir = tempfile::tempdir().unwrap();
@@ -273,7 +319,7 @@ fn truth_columns_hold_injected_values() {
         "thdy", "thdz",
     ];
     let k = DEG_PER_H / STANDARD_GRAVITY_MPS2;
-    let added: [(&str, f64); 25] = [
+    let added: [(&str, f64); 26] = [
         ("sgx", 100e-6),
         ("sgy", -200e-6),
         ("sgz", 300e-6),
@@ -296,6 +342,7 @@ fn truth_columns_hold_injected_values() {
         ("gs32", 8.0 * k),
         ("gs33", 9.0 * k),
         ("tau", 0.02),
+        ("tau_rate", 1e-4),
         ("drx", 0.3),
         ("dry", -0.3),
         ("drz", 0.25),
@@ -334,6 +381,12 @@ fn scenario_files_load() {
     assert_eq!(load("moored-delay-20ms.toml"), expected);
 
     let mut expected = moored.clone();
+    expected.name = "moored-clock-drift".into();
+    expected.duration_s = 300.0;
+    expected.undeclared.master_delay_rate = 0.025 / 300.0;
+    assert_eq!(load("moored-clock-drift.toml"), expected);
+
+    let mut expected = moored.clone();
     expected.name = "moored-lever-error".into();
     expected.undeclared.lever_arm_error_m = [0.3, -0.3, 0.25];
     assert_eq!(load("moored-lever-error.toml"), expected);
@@ -362,6 +415,12 @@ fn undeclared_values_are_validated() {
         check(
             &|sc| sc.undeclared.master_delay_s = tau,
             "`undeclared.master_delay_s`",
+        );
+    }
+    for rate in [-0.0101, 0.02, f64::NAN] {
+        check(
+            &|sc| sc.undeclared.master_delay_rate = rate,
+            "`undeclared.master_delay_rate`",
         );
     }
     check(

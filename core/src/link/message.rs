@@ -1367,7 +1367,14 @@ fn check_layout(layout: [Option<Effect>; MAX_EFFECTS]) -> Result<(), PayloadErro
             None => ended = true,
             Some(_) if ended => return Err(PayloadError::BadEffects(EffectsError::UnusedSlot)),
             Some(e) => {
-                if layout.iter().take(i).flatten().any(|p| p == e) {
+                // The two clock blocks (`time_delay`, `clock_drift`) model one clock: a
+                // layout carries one (`Augmentation::with` refuses the second).
+                if layout
+                    .iter()
+                    .take(i)
+                    .flatten()
+                    .any(|p| p == e || (p.is_clock() && e.is_clock()))
+                {
                     return Err(PayloadError::BadEffects(EffectsError::Duplicate {
                         code: e.code(),
                     }));

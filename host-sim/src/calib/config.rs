@@ -454,7 +454,9 @@ impl CalibConfig {
                 _ => effect.default_prior_sigma(),
             };
             aug = aug.with(effect, T::of(prior)).map_err(|e| match e {
-                AugmentError::Duplicate => format!("`effects`: `{name}` is listed twice"),
+                AugmentError::Duplicate => format!(
+                    "`effects`: `{name}` is listed twice (or with the other clock block: `time_delay` and `clock_drift` model the same clock)"
+                ),
                 AugmentError::Full => format!(
                     "`effects`: at most {MAX_EFFECTS} effects at a time, got {}",
                     self.effects.len()

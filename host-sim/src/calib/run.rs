@@ -351,12 +351,12 @@ fn innovations_of<T: Real>(r: &MatchReport<T>) -> impl Iterator<Item = Innovatio
 }
 
 /// The Wald statistic `x̂ᵀ P⁻¹ x̂` of states `offset..offset + k`.
-fn wald<T: Real, const S: usize>(engine: &Engine<T, S>, offset: usize, k: usize) -> f64 {
-    let x = engine.filter().state();
+fn wald<T: Real, const S: usize>(engine: &Engine<T, S>, offset: usize, value: &[f64]) -> f64 {
+    let k = value.len();
     let p = nalgebra::DMatrix::from_fn(k, k, |i, j| {
         engine.filter().cov(offset + i, offset + j).to_f64()
     });
-    let xv = nalgebra::DVector::from_fn(k, |i, _| x[offset + i].to_f64());
+    let xv = nalgebra::DVector::from_column_slice(value);
     match p.cholesky() {
         Some(ch) => xv.dot(&ch.solve(&xv)),
         None => f64::NAN,
@@ -433,19 +433,15 @@ fn run_generic<T: Real, const S: usize>(
                 for b in aug.blocks() {
                     if let Some(est) = engine.effect_estimate(b.effect) {
                         let k = b.effect.states();
-                        // The delay's state is the error of its fed-back nominal value.
-                        let offset = b.offset;
+                        // A clock's states are the errors of its fed-back nominal values:
+                        // the estimate (nominal + state) is what the Wald statistic tests.
+                        let value: Vec<f64> = est.value[..k].iter().map(|v| v.to_f64()).collect();
                         sink.effect(EffectRow {
                             t: r.t,
                             effect: b.effect,
-                            value: est.value[..k].iter().map(|v| v.to_f64()).collect(),
+                            wald: wald(engine, b.offset, &value),
+                            value,
                             sigma: est.sigma[..k].iter().map(|v| v.to_f64()).collect(),
-                            wald: if b.effect == Effect::TimeDelay {
-                                let (v, s) = (est.value[0].to_f64(), est.sigma[0].to_f64());
-                                v * v / (s * s)
-                            } else {
-                                wald(engine, offset, k)
-                            },
                         });
                     }
                 }

@@ -63,18 +63,21 @@ impl ModelEval {
     }
 }
 
-/// Runs one model (f64). A model with a time delay is run again from its own delay
-/// estimate until that moves by less than its σ (at most `DELAY_PASSES` runs).
+/// Runs one model (f64). A model with a time delay (or a clock drift) is run again from
+/// its own delay estimate (the drift's: the delay at its start) until that moves by less
+/// than its σ (at most `DELAY_PASSES` runs). The drift's rate starts from zero each pass.
 pub fn run_model(rec: &Recording, cfg: &CalibConfig) -> Result<ModelEval, String> {
     let mut cfg = cfg.clone();
-    let has_delay = cfg.effects.iter().any(|e| e == Effect::TimeDelay.name());
+    let clock = [Effect::TimeDelay, Effect::ClockDrift]
+        .into_iter()
+        .find(|c| cfg.effects.iter().any(|e| e == c.name()));
     let mut result = run(rec, &cfg, Precision::F64)?;
-    if has_delay {
+    if let Some(clock) = clock {
         for _ in 1..DELAY_PASSES {
             let Some(d) = result
                 .final_effects()
                 .into_iter()
-                .find(|r| r.effect == Effect::TimeDelay)
+                .find(|r| r.effect == clock)
             else {
                 break;
             };
@@ -195,8 +198,21 @@ pub fn run_candidates(
         .iter()
         .map(|e| {
             let mut c = current.cfg.clone();
+            // The clock drift carries the delay: with `time_delay` in the model it
+            // replaces it, from the delay found (`initial_delay_s`, warm-started).
+            if *e == Effect::ClockDrift {
+                c.effects.retain(|x| x != Effect::TimeDelay.name());
+            }
             c.effects.push(e.name().to_string());
-            if let (Effect::TimeDelay, Some(d)) = (e, delay_start_s) {
+            if let (true, Some(d), false) = (
+                e.is_clock(),
+                delay_start_s,
+                current
+                    .cfg
+                    .effects
+                    .iter()
+                    .any(|x| x == Effect::TimeDelay.name()),
+            ) {
                 c.initial_delay_s = d;
             }
             c

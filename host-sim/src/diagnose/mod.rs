@@ -46,6 +46,36 @@ pub const EXPLAINED_FRACTION_LEFT: f64 = 0.5;
 /// is not taken for the effect (prior-data conflict).
 pub const PLAUSIBLE_PRIORS: f64 = 3.0;
 
+/// Whether an estimate of `effect` is above its resolution floor
+/// (`Effect::resolution_floor`): any state's magnitude, but for the clock drift the
+/// delay's change over the recording's `span_s`, `|τ̇| × span`.
+pub fn above_floor(effect: Effect, estimate: &[f64], span_s: f64) -> bool {
+    match effect {
+        Effect::ClockDrift => estimate
+            .get(1)
+            .is_some_and(|r| r.abs() * span_s > effect.resolution_floor()),
+        _ => estimate.iter().any(|v| v.abs() > effect.resolution_floor()),
+    }
+}
+
+/// Whether every state of an estimate of `effect` is within `PLAUSIBLE_PRIORS` of its
+/// prior σ (`Effect::default_prior_sigma` scaled by `Effect::state_prior_scale`).
+pub fn plausible(effect: Effect, estimate: &[f64]) -> bool {
+    estimate.iter().enumerate().all(|(k, v)| {
+        v.abs() <= PLAUSIBLE_PRIORS * effect.default_prior_sigma() * effect.state_prior_scale(k)
+    })
+}
+
+/// The clock drift's own test of its rate: the Wald statistic of τ̇ alone, `(τ̇/σ)²`
+/// (χ²(1) without a drift). A delay without drift makes the drift's block significant
+/// through its delay; the rate must be significant on its own (at the χ²(1) threshold).
+pub fn clock_rate_wald(estimate: &[f64], sigma: &[f64]) -> f64 {
+    match (estimate.get(1), sigma.get(1)) {
+        (Some(r), Some(s)) if *s > 0.0 => (r / s) * (r / s),
+        _ => f64::NAN,
+    }
+}
+
 /// What the diagnosis may do.
 #[derive(Clone, Debug)]
 pub struct Options {
@@ -141,6 +171,20 @@ pub struct CandidateTest {
     /// Why it could not be tested, when it could not.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
+    /// Its estimate is above the effect's resolution floor (`above_floor`).
+    #[serde(skip)]
+    pub above_floor: bool,
+    /// Its estimate is plausible (`plausible`).
+    #[serde(skip)]
+    pub plausible: bool,
+    /// For the clock drift, the rate's own Wald statistic and its χ²(1) threshold
+    /// (`clock_rate_wald`).
+    #[serde(skip)]
+    pub rate_test: Option<(f64, f64)>,
+    /// For the clock drift tested beside `time_delay` in one round, its likelihood gain
+    /// over the delay's and the χ²(1) threshold that gain must exceed.
+    #[serde(skip)]
+    pub gain_over_delay: Option<(f64, f64)>,
 }
 
 /// One round of the search: every candidate tested against the current model.
@@ -221,7 +265,7 @@ fn backward(
             };
             let mut cfg = current.cfg.clone();
             cfg.effects.retain(|e| e != t.effect);
-            if effect == Effect::TimeDelay {
+            if effect.is_clock() {
                 cfg.initial_delay_s = declared.initial_delay_s;
             }
             let without = evaluate::evaluate_model(rec, &cfg, opts.holdout_fraction)?;
@@ -379,17 +423,26 @@ pub fn diagnose(
 ) -> Result<Diagnosis, String> {
     opts.validate()?;
     let rate = report::master_rate_hz(rec);
+    let span_s = match (rec.master.first(), rec.master.last()) {
+        (Some(a), Some(b)) => b.t - a.t,
+        _ => 0.0,
+    };
     let before = evaluate_model(rec, declared, opts.holdout_fraction)?;
     let (mut current, noise) = correct_noise(rec, &before, opts.alpha, opts.holdout_fraction)?;
     let mut rounds = Vec::new();
     let mut found = Vec::new();
     while found.len() < opts.budget {
         let present = current.cfg.augmentation::<f64>()?;
+        // The clock drift carries the delay: with it in, the delay is not tried; with the
+        // delay in, the drift is tried in its place (one more state, `run_candidates`).
+        let has_drift = present.offset(Effect::ClockDrift).is_some();
+        let has_delay = present.offset(Effect::TimeDelay).is_some();
         let untried: Vec<Effect> = opts
             .candidates
             .iter()
             .copied()
             .filter(|e| present.offset(*e).is_none())
+            .filter(|e| !(has_drift && *e == Effect::TimeDelay))
             .collect();
         if untried.is_empty() {
             break;
@@ -398,7 +451,12 @@ pub fn diagnose(
         let mut tests = Vec::new();
         let mut ranked: Vec<(f64, usize)> = Vec::new();
         for (k, (effect, outcome)) in untried.iter().zip(runs.iter()).enumerate() {
-            let dof = effect.states();
+            // Replacing the delay, the drift adds one state to the model.
+            let dof = if *effect == Effect::ClockDrift && has_delay {
+                1
+            } else {
+                effect.states()
+            };
             let threshold = opts.threshold(dof);
             let test = match outcome {
                 Ok(run) => {
@@ -411,15 +469,16 @@ pub fn diagnose(
                         .map(|r| (r.wald, r.value, r.sigma))
                         .unwrap_or((f64::NAN, Vec::new(), Vec::new()));
                     let lr = current.neg2ll - run.neg2ll;
-                    let above_floor = estimate.iter().any(|v| v.abs() > effect.resolution_floor());
+                    let above_floor = above_floor(*effect, &estimate, span_s);
                     // An estimate beyond PLAUSIBLE_PRIORS prior σ is not a value of this
                     // effect (prior-data conflict): the structure is something else,
                     // absorbed by the block (a 400 °/h/g "g-sensitivity" fitting a wave).
-                    let plausible = estimate
-                        .iter()
-                        .all(|v| v.abs() <= PLAUSIBLE_PRIORS * effect.default_prior_sigma());
+                    let plausible = plausible(*effect, &estimate);
+                    let rate_test = (*effect == Effect::ClockDrift)
+                        .then(|| (clock_rate_wald(&estimate, &sigma), opts.threshold(1)));
+                    let rate_ok = rate_test.is_none_or(|(w, thr)| w > thr);
                     let significant =
-                        wald > threshold && lr > threshold && above_floor && plausible;
+                        wald > threshold && lr > threshold && above_floor && plausible && rate_ok;
                     let sizes_after = size::axis_sizes(&run.result.innovations, rate);
                     // Among the significant, the one whose likelihood gains most over its
                     // threshold: with several candidates explaining the same signature
@@ -442,6 +501,10 @@ pub fn diagnose(
                         state_shift_sigma: state_shift(&current.result.last(), &run.result.last()),
                         holdout_likelihood_ratio: None,
                         error: None,
+                        above_floor,
+                        plausible,
+                        rate_test,
+                        gain_over_delay: None,
                     }
                 }
                 Err(e) => CandidateTest {
@@ -458,9 +521,30 @@ pub fn diagnose(
                     state_shift_sigma: f64::NAN,
                     holdout_likelihood_ratio: None,
                     error: Some(e.clone()),
+                    above_floor: false,
+                    plausible: false,
+                    rate_test: None,
+                    gain_over_delay: None,
                 },
             };
             tests.push(test);
+        }
+        // Nested: tested beside the delay, the drift's one more state must gain its χ²(1)
+        // threshold of likelihood over the delay alone (a constant 10 ms delay at 120 s,
+        // seed 2: a drift rate of 17 ± 3 ppm, rate Wald 36, yet its likelihood 1556 below
+        // the delay's).
+        let position = |e: Effect| untried.iter().position(|x| *x == e);
+        if let (Some(kd), Some(kt)) = (position(Effect::ClockDrift), position(Effect::TimeDelay)) {
+            let delay_lr = tests.get(kt).map_or(f64::NAN, |t| t.likelihood_ratio);
+            if let Some(t) = tests.get_mut(kd).filter(|_| delay_lr.is_finite()) {
+                let gain = t.likelihood_ratio - delay_lr;
+                let thr = opts.threshold(1);
+                t.gain_over_delay = Some((gain, thr));
+                if gain.is_nan() || gain <= thr {
+                    t.significant = false;
+                    ranked.retain(|&(_, k)| k != kd);
+                }
+            }
         }
         // The held-out check decides between the significant: frozen after the held-out
         // fraction, the added effect must predict the rest of the recording better. An
@@ -541,12 +625,24 @@ mod tests {
     #[test]
     fn thresholds_are_bonferroni_chi_square_quantiles() {
         let o = Options::default();
-        // α / (3 × 8) = 4.17e-4: the χ² quantiles quoted in docs/diagnosis.md.
+        // α / (3 × 8) = 4.17e-4: the χ² quantiles quoted in docs/diagnosis.md; with
+        // `clock_drift` asked for too (9 candidates, α / 27) they are 12.6760, 15.8020
+        // (k = 2), 18.3619, 30.4315.
+        assert_eq!(o.candidates.len(), 8);
         for (k, want) in [(1, 12.4559), (3, 18.1140), (9, 30.1316)] {
             assert!(
                 (o.threshold(k) - want).abs() < 1e-3,
                 "k = {k}: {}",
                 o.threshold(k)
+            );
+        }
+        let mut with_drift = o.clone();
+        with_drift.candidates.push(Effect::ClockDrift);
+        for (k, want) in [(1, 12.6760), (2, 15.8020), (3, 18.3619), (9, 30.4315)] {
+            assert!(
+                (with_drift.threshold(k) - want).abs() < 1e-3,
+                "with the drift, k = {k}: {}",
+                with_drift.threshold(k)
             );
         }
         assert!(Options {

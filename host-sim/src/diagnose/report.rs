@@ -27,6 +27,7 @@ pub fn effect_truth(effect: Effect, truth: &Truth) -> Option<Vec<f64>> {
         Effect::GyroMisalignment => &["ngxy", "ngxz", "ngyz"],
         Effect::AccelMisalignment => &["naxy", "naxz", "nayz"],
         Effect::TimeDelay => &["tau"],
+        Effect::ClockDrift => &["tau", "tau_rate"],
         Effect::LeverArmError => &["drx", "dry", "drz"],
         Effect::GyroGSensitivity => &[
             "gs11", "gs12", "gs13", "gs21", "gs22", "gs23", "gs31", "gs32", "gs33",
@@ -265,20 +266,33 @@ pub fn decision(t: &CandidateTest, round: &Round) -> String {
             ));
         }
         if let Some(e) = Effect::from_name(t.effect) {
-            if !t.estimate.iter().any(|v| v.abs() > e.resolution_floor()) {
+            if !t.above_floor {
                 why.push(format!(
                     "estimate below its resolution floor {}",
                     fmt_g(e.resolution_floor())
                 ));
             }
-            let limit = crate::diagnose::PLAUSIBLE_PRIORS * e.default_prior_sigma();
-            if t.estimate.iter().any(|v| v.abs() > limit) {
+            if !t.plausible {
                 why.push(format!(
                     "implausible: beyond {} prior σ ({})",
                     crate::diagnose::PLAUSIBLE_PRIORS,
-                    fmt_g(limit)
+                    fmt_g(crate::diagnose::PLAUSIBLE_PRIORS * e.default_prior_sigma())
                 ));
             }
+        }
+        if let Some((g, thr)) = t.gain_over_delay.filter(|(g, thr)| g.is_nan() || g <= thr) {
+            why.push(format!(
+                "its likelihood over the delay's {} ≤ {}",
+                fmt_g(g),
+                fmt_g(thr)
+            ));
+        }
+        if let Some((w, thr)) = t.rate_test.filter(|(w, thr)| w.is_nan() || w <= thr) {
+            why.push(format!(
+                "the drift's rate alone: Wald {} ≤ {}",
+                fmt_g(w),
+                fmt_g(thr)
+            ));
         }
         return format!("not significant: {}", why.join("; "));
     }
@@ -338,9 +352,12 @@ pub fn supported_not_adopted(d: &Diagnosis) -> Vec<Value> {
     v.into_iter()
         .map(|t| {
             let mut effects: Vec<&str> = d.after.cfg.effects.iter().map(String::as_str).collect();
+            if t.effect == Effect::ClockDrift.name() {
+                effects.retain(|e| *e != Effect::TimeDelay.name());
+            }
             effects.push(t.effect);
             let mut cfg = json!({ "effects": effects });
-            if t.effect == Effect::TimeDelay.name() {
+            if Effect::from_name(t.effect).is_some_and(Effect::is_clock) {
                 if let (Some(obj), Some(delay)) = (cfg.as_object_mut(), t.estimate.first()) {
                     obj.insert("initial_delay_s".into(), json!(delay));
                 }

@@ -68,7 +68,13 @@ pub enum BlindEffect {
     AccelNonorthogonality,
     /// Gyro g-sensitivity 0.5 °/h/g on the diagonal, random sign.
     GyroGSensitivity,
+    /// Master clock drift: the delay grows from 0 at the start to 10–50 ms (uniform)
+    /// at the end of the run (`undeclared.master_delay_rate` = that / duration).
+    ClockDrift,
 }
+
+/// The clock drift's delay at the end of a blind run (s): uniform in this range.
+pub const CLOCK_DRIFT_END_DELAY_S: (f64, f64) = (0.010, 0.050);
 
 /// Log-uniform in `[lo, hi]`.
 fn log_uniform(rng: &mut impl Rng, lo: f64, hi: f64) -> f64 {
@@ -194,6 +200,10 @@ pub fn draw_effects(seed: u64, duration_s: f64, effects: &[BlindEffect]) -> Scen
                 imu.gyro_g_sensitivity_deg_h_per_g =
                     [s[0], 0.0, 0.0, 0.0, s[1], 0.0, 0.0, 0.0, s[2]];
             }
+            BlindEffect::ClockDrift => {
+                let (lo, hi) = CLOCK_DRIFT_END_DELAY_S;
+                undeclared.master_delay_rate = rng.gen_range(lo..=hi) / duration_s.max(1.0);
+            }
         }
     }
     let names: Vec<&str> = effects.iter().map(|e| effect_name(*e)).collect();
@@ -235,6 +245,7 @@ pub fn effect_name(e: BlindEffect) -> &'static str {
         BlindEffect::GyroNonorthogonality => "gyro_nonorthogonality",
         BlindEffect::AccelNonorthogonality => "accel_nonorthogonality",
         BlindEffect::GyroGSensitivity => "gyro_g_sensitivity",
+        BlindEffect::ClockDrift => "clock_drift",
     }
 }
 
@@ -293,6 +304,17 @@ mod tests {
         let s = draw(5, 60.0, Some(BlindEffect::LeverArmError));
         let n: f64 = s.undeclared.lever_arm_error_m.iter().map(|v| v * v).sum();
         assert!((n.sqrt() - 0.5).abs() < 1e-12);
+        assert_eq!(s.undeclared.master_delay_rate, 0.0);
+        for seed in 0..50 {
+            let s = draw(seed, 300.0, Some(BlindEffect::ClockDrift));
+            let end = s.undeclared.master_delay_rate * 300.0;
+            assert!(
+                (0.010..=0.050).contains(&end),
+                "seed {seed}: {end} s at the end"
+            );
+            assert_eq!(s.undeclared.master_delay_s, 0.0);
+            s.validate().expect("a clock drift draw validates");
+        }
     }
 
     #[test]

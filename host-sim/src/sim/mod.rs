@@ -160,8 +160,8 @@ impl ImuErrors {
 
 /// The truth columns that are constant in time, by name: the slave IMU's scale
 /// factors (`sg*`, `sa*`), non-orthogonality (`ng*`, `na*`, rad), gyro g-sensitivity
-/// (`gs11`..`gs33` row by row, rad/s per m/s²), the master delay (`tau`, s) and the
-/// lever-arm error (`dr*`, m, master body).
+/// (`gs11`..`gs33` row by row, rad/s per m/s²), the master delay at t = 0 (`tau`, s)
+/// and its rate (`tau_rate`, s/s), and the lever-arm error (`dr*`, m, master body).
 fn constant_truth(e: &ImuErrors, und: &Undeclared) -> Vec<(&'static str, f64)> {
     const GS: [&str; 9] = [
         "gs11", "gs12", "gs13", "gs21", "gs22", "gs23", "gs31", "gs32", "gs33",
@@ -173,7 +173,10 @@ fn constant_truth(e: &ImuErrors, und: &Undeclared) -> Vec<(&'static str, f64)> {
         .chain(vec3(["naxy", "naxz", "nayz"], e.na))
         // nalgebra stores column by column: transpose to read G row by row.
         .chain(GS.into_iter().zip(e.g_si.transpose().iter().copied()))
-        .chain([("tau", und.master_delay_s)])
+        .chain([
+            ("tau", und.master_delay_s),
+            ("tau_rate", und.master_delay_rate),
+        ])
         .chain(vec3(["drx", "dry", "drz"], und.lever_arm_error_m))
         .collect()
 }
@@ -224,7 +227,8 @@ fn gauss3(rng: &mut impl Rng, sigma: f64) -> Vector3<f64> {
 ///
 /// With `undeclared.master_delay_s` = τ > 0 the master message stamped `t` is the
 /// master truth at `t − τ`, from the closed-form motion (attitude, rate), the
-/// constant velocity, and the position at `t` moved back by `v τ`. The first messages,
+/// constant velocity, and the position at `t` moved back by `v τ`; with a clock drift
+/// (`master_delay_rate` = τ̇) the delay is `τ + τ̇ t`. The first messages,
 /// whose `t − τ` is negative, are emitted too: the motion is defined for all times.
 pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -272,7 +276,7 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
         (m, th, thd, slave_truth(&fx, &m, pos_m, &th, &thd))
     };
     let (_, _, _, mut prev) = boundary(0, &pos_m);
-    let tau = und.master_delay_s;
+    let (tau0, tau_rate) = (und.master_delay_s, und.master_delay_rate);
     let mut smooth = sc
         .master
         .smooth_error
@@ -288,6 +292,7 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
                            th: &Vector3<f64>,
                            thd: &Vector3<f64>,
                            rng: &mut ChaCha8Rng| {
+        let tau = tau0 + tau_rate * t;
         let m = sc.motion.attitude(t - tau);
         let pos = earth::offset_position(pos_t, &(-fx.v_m * tau));
         let w_ie = earth::earth_rate_n(pos.lat_rad);

@@ -219,6 +219,11 @@ pub struct Undeclared {
     /// Negative: the master's tags are early — with either sign, beyond the filter's
     /// reach, a clock offset between the two units (`calib::prefilter`).
     pub master_delay_s: f64,
+    /// Drift of the master's clock (s/s, in [−0.01, 0.01]): the delay grows with the
+    /// stamp, the message stamped `t` is the master at `t − τ(t)`,
+    /// `τ(t) = master_delay_s + master_delay_rate * t` (the recording starts at t = 0).
+    /// A clock drift (the `clock_drift` effect).
+    pub master_delay_rate: f64,
     /// Error of the surveyed lever arm, master body frame (m): the true static arm is
     /// `lever_arm.r0_m + lever_arm_error_m`, and the truth (slave velocity, position,
     /// bending matrix R) uses it, while the recording still declares `lever_arm.r0_m`.
@@ -394,6 +399,12 @@ impl Undeclared {
         if !(tau.is_finite() && (-1.0..=1.0).contains(&tau)) {
             return Err(format!(
                 "`undeclared.master_delay_s` must be a number in [-1, 1] s, got {tau}"
+            ));
+        }
+        let rate = self.master_delay_rate;
+        if !(rate.is_finite() && (-0.01..=0.01).contains(&rate)) {
+            return Err(format!(
+                "`undeclared.master_delay_rate` must be a number in [-0.01, 0.01] s/s, got {rate}"
             ));
         }
         if let Some(v) = self.lever_arm_error_m.iter().find(|v| !v.is_finite()) {
