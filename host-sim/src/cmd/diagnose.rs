@@ -22,7 +22,8 @@ pub struct Args {
     /// one, else the built-in configuration.
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Candidate effects, comma separated (default: all of the vocabulary).
+    /// Candidate effects, comma separated (default: the vocabulary but its opt-in effects,
+    /// `clock_drift`, which are searched only when named here).
     #[arg(long, value_delimiter = ',')]
     pub candidates: Vec<String>,
     /// Most effects added.
