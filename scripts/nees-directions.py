@@ -10,7 +10,7 @@ Prints the mean NEES and the mean contribution of the largest groups, and with
     python3 scripts/nees-directions.py [--per-run] RUN_DIR/summary.json ...
 
 Reads summary.json's `errors` (present when the recording has truth.csv) and
-`calibrated_covariance`.
+`calibrated_covariance`. Needs numpy (`pip install numpy` or Debian's python3-numpy).
 """
 import collections
 import json

@@ -1077,7 +1077,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         let lever_v = c_bm_n * msg.w_ib_bm.map_or(Vector3::zeros(), |w| w.cross(&r0));
         // The start holds the master's smooth errors of this instant (see
         // `initial_factor`); only layouts carrying those blocks restart, once per start.
-        if [Effect::MasterAttitudeError, Effect::MasterVelocityError]
+        if Effect::MASTER_ERRORS
             .iter()
             .any(|&e| self.cfg.augmentation.offset(e).is_some())
         {
