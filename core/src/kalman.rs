@@ -1015,10 +1015,14 @@ impl<T: Real, const N: usize> Kalman<T, N> {
 
     /// State estimate in physical units.
     pub fn state(&self) -> SVector<T, N> {
-        SVector::from_fn(|i, _| {
-            let a = self.internal(i);
-            vget(&self.xs, a) * vget(&self.scale, a)
-        })
+        SVector::from_fn(|i, _| self.state_at(i))
+    }
+
+    /// State `i`'s estimate in physical units: [`Kalman::state`]'s element `i`, without
+    /// forming the others (the board's identifier reads three states per update).
+    pub fn state_at(&self, i: usize) -> T {
+        let a = self.internal(i);
+        vget(&self.xs, a) * vget(&self.scale, a)
     }
 
     /// Scaled covariance element `P_s(i, j) = Σ_{k ≥ max(i, j)} U(i, k) D_k U(j, k)` (O(N)),

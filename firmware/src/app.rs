@@ -46,8 +46,9 @@ use flexcal_core::link::{
     ConfigMsg, EffectsMsg, Encoder, EstimatesMsg, HealthFlags, LinkCounters, Message, Receiver,
     StatusMsg, MAX_FRAME_LEN,
 };
-use flexcal_core::model::N;
+use flexcal_core::model::{N, TH};
 use flexcal_core::probe::{self, Phase};
+use nalgebra::Vector3;
 
 use crate::imu::ImuSource;
 use crate::replay::ReplaySource;
@@ -188,6 +189,17 @@ impl BoardEngine {
     #[inline(always)]
     pub fn estimates(&self) -> Estimates<f32> {
         on_engine!(self, e => e.estimates())
+    }
+
+    /// The flexure states θ (rad): [`Engine::estimates`]'s `flexure`, without the other
+    /// estimates and the standard deviations (each a sum along a row of the factors; the
+    /// identifier reads θ after every update, 2k instructions a time).
+    #[inline(always)]
+    pub fn flexure(&self) -> Vector3<f32> {
+        on_engine!(self, e => {
+            let kf = e.filter();
+            Vector3::new(kf.state_at(TH), kf.state_at(TH + 1), kf.state_at(TH + 2))
+        })
     }
 
     /// See [`Engine::counters`].
@@ -544,7 +556,7 @@ impl App {
             self.counters.master_updates = self.counters.master_updates.wrapping_add(1);
             if let Some(e) = self.engine.as_ref() {
                 let _phase = probe::enter(Phase::Identifier);
-                let th = e.estimates().flexure;
+                let th = e.flexure();
                 for (id, x) in self.ident.iter_mut().zip(th.iter()) {
                     id.push(*x);
                 }
