@@ -11,6 +11,8 @@ Usage (docs/performance.md):
     firmware/exec-profile.py dis.txt /tmp/qemu-exec.log [N]
     # inside the functions whose name contains FUNC: instructions per source line
     firmware/exec-profile.py dis.txt /tmp/qemu-exec.log [N] --lines ELF FUNC
+    # their disassembly, each instruction with the times it ran
+    firmware/exec-profile.py dis.txt /tmp/qemu-exec.log --annotate FUNC
 
 Each executed translation block (its start address in the log's `exec` records) is charged
 its instructions. With `in_asm` in the log, QEMU prints each block's instructions when it
@@ -22,6 +24,10 @@ the most instructions; divide by the replay's master updates for a per-update fi
 `--lines ELF FUNC`: the instructions executed inside functions whose name contains FUNC,
 per source line (`llvm-addr2line -i` on ELF: the innermost inlined frame in this
 workspace's `core/src` or `firmware/src`), the N largest.
+
+`--annotate FUNC`: the disassembly of the functions whose name contains FUNC, each
+instruction preceded by the times it ran (a loop's body by its count; sum a range of
+addresses for a loop's or a set-up's share).
 """
 import bisect
 import collections
@@ -78,7 +84,11 @@ def read_log(path):
 
 def main():
     args = sys.argv[1:]
-    lines = None
+    lines, annotate = None, None
+    if '--annotate' in args:
+        i = args.index('--annotate')
+        annotate = args[i + 1]
+        del args[i:i + 2]
     if '--lines' in args:
         i = args.index('--lines')
         lines = (args[i + 1], args[i + 2])
@@ -120,6 +130,11 @@ def main():
     total = sum(per_function.values())
     exact = 'exact (in_asm)' if blocks else 'blocks walked to the next branch'
     print(f"total instructions {total} ({exact})")
+    if annotate is not None:
+        for a, mn, ops, f in ins:
+            if annotate in f:
+                print(f"{per_addr[a]:>10} {a:08x} {mn}{ops}")
+        return
     if lines is None:
         for f, v in per_function.most_common(top):
             print(f"{v:>12} {100 * v / total:5.1f}% {f}")

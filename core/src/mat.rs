@@ -5,6 +5,15 @@
 use crate::real::Real;
 use nalgebra::SMatrix;
 
+/// A zero matrix written as its array: nalgebra's `zeros()` builds it from an iterator,
+/// which the board's size-optimized image does through a temporary and a copy (the
+/// time update's three `6 × S` matrices and the matching's measurement rows: 2.5k
+/// instructions per master update, `bench-board`, `docs/performance.md`).
+#[inline(always)]
+pub fn zeros<T: Real, const R: usize, const C: usize>() -> SMatrix<T, R, C> {
+    SMatrix::from_data(nalgebra::ArrayStorage([[T::zero(); R]; C]))
+}
+
 /// Element `(i, j)`, or zero outside the matrix.
 #[inline]
 pub fn get<T: Real, const R: usize, const C: usize>(m: &SMatrix<T, R, C>, i: usize, j: usize) -> T {

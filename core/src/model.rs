@@ -130,7 +130,7 @@ pub fn dynamics<T: Real, const S: usize>(
     m: &IntervalMeans<T>,
     aug: &Augmentation<T>,
 ) -> SMatrix<T, DYN, S> {
-    let mut f = SMatrix::<T, DYN, S>::zeros();
+    let mut f = mat::zeros::<T, DYN, S>();
     nav_dynamics_rows(m, &mut f);
     augment::add_dynamics(&mut f, aug, (V, PSI), &m.f_b, &m.w_ib_b, &m.c_b_n);
     f
@@ -222,7 +222,7 @@ pub fn transition_into<T: Real, const S: usize>(
         }
         acc
     };
-    let mut f2 = SMatrix::<T, DYN, S>::zeros();
+    let mut f2 = mat::zeros::<T, DYN, S>();
     for &j in cols {
         let c = times_ft(&ft_cols, j);
         if let Some(dst) = f2.as_mut_slice().get_mut(j * DYN..j * DYN + DYN) {
@@ -233,7 +233,7 @@ pub fn transition_into<T: Real, const S: usize>(
     for (k, c) in f2_cols.iter_mut().enumerate() {
         *c = column(&f2, k);
     }
-    let mut f3 = SMatrix::<T, DYN, S>::zeros();
+    let mut f3 = mat::zeros::<T, DYN, S>();
     for &j in cols {
         let c = times_ft(&f2_cols, j);
         if let Some(dst) = f3.as_mut_slice().get_mut(j * DYN..j * DYN + DYN) {
@@ -302,7 +302,7 @@ pub fn process_noise<T: Real, const S: usize>(
 pub type Rows<T, const S: usize = N> = [SVector<T, S>; 3];
 
 fn rows_from_blocks<T: Real, const S: usize>(blocks: &[(usize, Matrix3<T>)]) -> Rows<T, S> {
-    let mut rows = [SVector::<T, S>::zeros(); 3];
+    let mut rows = [mat::zeros::<T, S, 1>(); 3];
     for (axis, row) in rows.iter_mut().enumerate() {
         for (offset, b) in blocks {
             for k in 0..3 {

@@ -46,8 +46,9 @@ use flexcal_core::link::{
     ConfigMsg, EffectsMsg, Encoder, EstimatesMsg, HealthFlags, LinkCounters, Message, Receiver,
     StatusMsg, MAX_FRAME_LEN,
 };
-use flexcal_core::model::N;
+use flexcal_core::model::{N, TH};
 use flexcal_core::probe::{self, Phase};
+use nalgebra::Vector3;
 
 use crate::imu::ImuSource;
 use crate::replay::ReplaySource;
@@ -188,6 +189,17 @@ impl BoardEngine {
     #[inline(always)]
     pub fn estimates(&self) -> Estimates<f32> {
         on_engine!(self, e => e.estimates())
+    }
+
+    /// The flexure states θ (rad): [`Engine::estimates`]'s `flexure`, without the other
+    /// estimates and the standard deviations (each a sum along a row of the factors; the
+    /// identifier reads θ after every update, 2k instructions a time).
+    #[inline(always)]
+    pub fn flexure(&self) -> Vector3<f32> {
+        on_engine!(self, e => {
+            let kf = e.filter();
+            Vector3::new(kf.state_at(TH), kf.state_at(TH + 1), kf.state_at(TH + 2))
+        })
     }
 
     /// See [`Engine::counters`].
@@ -534,7 +546,9 @@ impl App {
         }
     }
 
-    fn on_reports<W: FnMut(&[u8])>(&mut self, reports: &[MatchReport<f32>], out: &mut W) {
+    // The sending methods below take their sender as `dyn`: generic, they were one copy
+    // per caller's closure type (the replay's two transports), 1.7 kB of flash in all.
+    fn on_reports(&mut self, reports: &[MatchReport<f32>], out: &mut dyn FnMut(&[u8])) {
         let Some(cfg) = self.config else {
             return;
         };
@@ -542,7 +556,7 @@ impl App {
             self.counters.master_updates = self.counters.master_updates.wrapping_add(1);
             if let Some(e) = self.engine.as_ref() {
                 let _phase = probe::enter(Phase::Identifier);
-                let th = e.estimates().flexure;
+                let th = e.flexure();
                 for (id, x) in self.ident.iter_mut().zip(th.iter()) {
                     id.push(*x);
                 }
@@ -558,7 +572,7 @@ impl App {
     }
 
     /// Estimates, then (layouts with effects) the Effects frames of the same time.
-    fn send_estimates<W: FnMut(&[u8])>(&mut self, out: &mut W) {
+    fn send_estimates(&mut self, out: &mut dyn FnMut(&[u8])) {
         let Some(e) = self.engine.as_ref() else {
             return;
         };
@@ -580,14 +594,14 @@ impl App {
         }
     }
 
-    fn send_status<W: FnMut(&[u8])>(&mut self, out: &mut W) {
+    fn send_status(&mut self, out: &mut dyn FnMut(&[u8])) {
         let m = self.status();
         if self.send(&Message::Status(m), out) {
             self.counters.status_sent = self.counters.status_sent.wrapping_add(1);
         }
     }
 
-    fn send<W: FnMut(&[u8])>(&mut self, msg: &Message, out: &mut W) -> bool {
+    fn send(&mut self, msg: &Message, out: &mut dyn FnMut(&[u8])) -> bool {
         let mut buf = [0u8; MAX_FRAME_LEN];
         match self.tx.encode(msg, &mut buf) {
             Ok(n) => {

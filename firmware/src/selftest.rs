@@ -2,20 +2,21 @@
 //! values known independently of this code.
 //!
 //! It proves on the target that the floating-point path the engine relies on (hardware f32
-//! on the Cortex-M4F, `libm` transcendental functions through nalgebra's `RealField`) gives
+//! on the Cortex-M4F, the engine's own `sin`/`cos` and square root, `libm`'s other functions) gives
 //! the right numbers, and it gives the QEMU test something real to wait for. The same
 //! generic code runs in `f32` on the board and in `f32` and `f64` in the host tests.
 //!
 //! Three checks:
 //! - the engine's own elementary functions (`Real::sqrt_fast`, the FPU's `vsqrt.f32` on the
 //!   board, bit for bit equal to `libm`'s correctly rounded square root; `Real::sin_cos_fast`
-//!   close to `libm`'s sine and cosine);
+//!   close to `libm`'s `f64` sine and cosine, rounded);
 //! - WGS-84 normal gravity (Somigliana's closed formula) at the equator and at a pole,
 //!   against the published defining values γe and γp;
 //! - the step response of a first-order low-pass filter run recursively for `N` steps,
 //!   against its closed form `1 - (1 - a)^N`.
 
 use flexcal_core::real::Real;
+use nalgebra::ComplexField;
 
 /// WGS-84 normal gravity at the equator, m/s² (defining value).
 pub const GAMMA_EQUATOR: f64 = 9.780_325_335_9;
@@ -59,12 +60,14 @@ pub struct SelftestReport<R> {
     pub low_pass: R,
 }
 
-/// WGS-84 normal gravity on the ellipsoid at geodetic latitude `lat` (radians), m/s².
+/// WGS-84 normal gravity on the ellipsoid at geodetic latitude `lat` (radians), m/s²; the
+/// sine is the engine's own (`Real::sin_cos_fast`).
 ///
 /// Somigliana's formula `γ = γe (1 + k sin²φ) / sqrt(1 - e² sin²φ)`. Total for finite input:
 /// the square root's argument is at least `1 - e² > 0`.
 pub fn normal_gravity<R: Real>(lat: R) -> R {
-    let s2 = lat.sin() * lat.sin();
+    let s = lat.sin_cos_fast().0;
+    let s2 = s * s;
     R::of(GAMMA_EQUATOR) * (R::one() + R::of(SOMIGLIANA_K) * s2)
         / (R::one() - R::of(ECC2) * s2).sqrt()
 }
@@ -82,16 +85,18 @@ pub fn low_pass_step_response<R: Real>(gain: R, steps: u16) -> R {
 const ELEMENTARY_ARGS: [f64; 8] = [0.0, 1e-30, 0.3, 0.5, 2.0, 3.0, 123.456, 1e10];
 
 /// `true` if `Real::sqrt_fast` equals the library's square root bit for bit on
-/// [`ELEMENTARY_ARGS`], and `Real::sin_cos_fast` is within `tol` of the library's sine and
-/// cosine on those below 1000 rad (the range `sin_cos_fast` reduces itself; beyond it, it is
-/// the library's).
+/// [`ELEMENTARY_ARGS`], and `Real::sin_cos_fast` is within `tol` of the library's `f64` sine
+/// and cosine on those below 1000 rad (the range `sin_cos_fast` reduces itself; beyond it, it
+/// is the library's). In `f64`, not `R`: the board links no `sinf`/`cosf` (3.7 kB of flash).
 fn elementary_functions_agree<R: Real>(tol: R) -> bool {
     ELEMENTARY_ARGS.iter().all(|&x| {
         let x = R::of(x);
         let root_ok = x.sqrt_fast() == x.sqrt();
         let trig_ok = x >= R::of(1000.0) || {
             let (s, c) = x.sin_cos_fast();
-            close(s, x.sin(), tol) && close(c, x.cos(), tol)
+            let xd = x.to_f64();
+            let (sd, cd) = ComplexField::sin_cos(xd);
+            close(s, R::of(sd), tol) && close(c, R::of(cd), tol)
         };
         root_ok && trig_ok
     })
