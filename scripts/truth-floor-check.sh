@@ -14,10 +14,15 @@
 #
 # Variants, each an environment variable (unset: the draw and its truth model as they are):
 #   IMU_RATE_HZ=400              the slave IMU's rate in the draw
+#   MASTER_RATE_HZ=50            the master's message rate in the draw
 #   FLEXURE_ARCMIN=0.001         the drawn flexure's σ on every axis
+#   FLEXURE_ARCMIN_AXES='2, 0.001, 0.001'  the drawn flexure's σ per axis (x, y, z)
 #   MATCHING='"attitude"'        the channels matched (a TOML list's items)
 #   MISALIGNMENT_PRIOR_RAD=0.0017  the initial misalignment σ (the truth model's is 1°)
 #   LEVER_ARM_M='0.0, 0.0, 0.0'  the drawn lever arm (m, master body)
+#   FLEXURE_OMEGA='1.5, 1.5, 1.5', FLEXURE_DAMPING='0.3, 0.3, 0.3'   the drawn mode per axis
+#   ROLL_AMP_DEG=0, PITCH_AMP_DEG=0, YAW_AMP_DEG=0   the ship's drawn motion amplitudes
+#   MISALIGNMENT_DEG='0.0, 0.0, 0.0'  the drawn mounting (deg)
 #   FLOORS=truth                 only the floors as written (truth-f32: only the f32 ones)
 #   SMOOTH_ATTITUDE_ARCSEC=0.001, SMOOTH_VELOCITY_MPS=1e-6   a smooth master's drawn σ
 #   MASTER_RATE_NOISE_DEG_H, MASTER_ATTITUDE_NOISE_DEG, MASTER_VELOCITY_NOISE_MPS   its white noise
@@ -34,7 +39,15 @@ echo "| seed | master | floors | NEES | largest error/σ | NIS velocity E, N, U 
 echo "|---|---|---|---|---|---|---|---|"
 for s in "$@"; do
   "$F" simulate --blind --seed "$s" --duration "$dur" --out "$out/b$s" > /dev/null
-  sed -e "${IMU_RATE_HZ:+/^\[slave_imu\]/,/^\[/ s/^rate_hz = .*/rate_hz = $IMU_RATE_HZ/}" \
+  sed -e "${FLEXURE_OMEGA:+s/^omega_rad_s = .*/omega_rad_s = [$FLEXURE_OMEGA]/}" \
+      -e "${FLEXURE_DAMPING:+s/^damping = .*/damping = [$FLEXURE_DAMPING]/}" \
+      -e "${ROLL_AMP_DEG:+s/^roll_amp_deg = .*/roll_amp_deg = $ROLL_AMP_DEG/}" \
+      -e "${PITCH_AMP_DEG:+s/^pitch_amp_deg = .*/pitch_amp_deg = $PITCH_AMP_DEG/}" \
+      -e "${YAW_AMP_DEG:+s/^yaw_amp_deg = .*/yaw_amp_deg = $YAW_AMP_DEG/}" \
+      -e "${MISALIGNMENT_DEG:+s/^misalignment_deg = .*/misalignment_deg = [$MISALIGNMENT_DEG]/}" \
+      -e "${MASTER_RATE_HZ:+/^\[master\]/,/^\[/ s/^rate_hz = .*/rate_hz = $MASTER_RATE_HZ/}" \
+      -e "${IMU_RATE_HZ:+/^\[slave_imu\]/,/^\[/ s/^rate_hz = .*/rate_hz = $IMU_RATE_HZ/}" \
+      -e "${FLEXURE_ARCMIN_AXES:+s/^sigma_arcmin = .*/sigma_arcmin = [$FLEXURE_ARCMIN_AXES]/}" \
       -e "${FLEXURE_ARCMIN:+s/^sigma_arcmin = .*/sigma_arcmin = [$FLEXURE_ARCMIN, $FLEXURE_ARCMIN, $FLEXURE_ARCMIN]/}" \
       -e "${LEVER_ARM_M:+s/^r0_m = .*/r0_m = [$LEVER_ARM_M]/}" \
       -e "${SMOOTH_ATTITUDE_ARCSEC:+s/^attitude_arcsec = .*/attitude_arcsec = $SMOOTH_ATTITUDE_ARCSEC/}" \

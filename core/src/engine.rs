@@ -15,7 +15,9 @@ use crate::model::{
 };
 use crate::probe::{self, Phase};
 use crate::real::Real;
-use crate::rotation::{dcm, exp_so3, nlerp, quat_exp, quat_log, right_jacobian};
+use crate::rotation::{
+    dcm, exp_so3, inverse_right_jacobian_small, nlerp, quat_exp, quat_log, right_jacobian,
+};
 use crate::strapdown::{Increments, NavState, Strapdown};
 use heapless::{Deque, Vec};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
@@ -1365,7 +1367,14 @@ impl<T: Real, const S: usize> Engine<T, S> {
         }
         if m.attitude {
             let z = model::attitude_residual(&self.misalignment, &c_bm_n, &dcm(&slave.q_b_n));
-            let mut rows = model::attitude_rows::<T, S>(&jr);
+            // The flexure at the matching time, θ(t_s) = θ − lag θ̇: the linearization point.
+            let kf = &self.kf;
+            let theta =
+                Vector3::from_fn(|k, _| kf.state_at(TH + k) - lag * kf.state_at(THD + k));
+            let mut rows = model::attitude_rows::<T, S>(
+                &inverse_right_jacobian_small(&(jr * theta)),
+                &right_jacobian(&(self.misalignment + theta)),
+            );
             augment(&mut rows, Channel::Attitude);
             let r = self.cfg.measurement_noise.attitude_rad.map(|s| s * s);
             report.attitude = Some(self.update3(&rows, &z, r, gate));

@@ -335,10 +335,27 @@ pub fn velocity_rows<T: Real, const S: usize>(
     }
 }
 
-/// Attitude matching `z_a = Log(Exp(−μ̂) C_bm^nᵀ Ĉ_bs^n)` (rad, slave body frame).
-/// `jr_mu`: the right Jacobian `J_r(μ̂)`.
-pub fn attitude_rows<T: Real, const S: usize>(jr_mu: &Matrix3<T>) -> Rows<T, S> {
-    rows_from_blocks(&[(PSI, Matrix3::identity()), (MU, *jr_mu), (TH, *jr_mu)])
+/// Attitude matching `z_a = Log(Exp(−μ̂) C_bm^nᵀ Ĉ_bs^n)` (rad, slave body frame),
+/// linearized where the filter stands: the flexure at its estimate θ̂, not at zero.
+///
+/// With `Ĉ_bs^n = C_bm^n Exp(μ + θ) Exp(ψ)`, `Exp(z) = Exp(a) Exp(ψ)` where
+/// `Exp(a) = Exp(−μ̂) Exp(μ̂ + δμ + θ)`, so `∂z/∂ψ = J_r⁻¹(â)` and
+/// `∂z/∂δμ = ∂z/∂θ = J_r⁻¹(â) J_r(μ̂ + θ̂)`, `â ≈ J_r(μ̂) θ̂` the residual the estimates
+/// predict. At θ̂ = 0 these are `I` and `J_r(μ̂)`. The difference is of the size of θ̂
+/// (a few 10⁻⁴ rad), but it is all that tells ψ, which the flexure turns with the slave's
+/// body, from δμ, which it does not: the propagation turns ψ by the flexure's whole angle
+/// (`Φ` holds the slave's rate), the measurement sees it turned by half (`½ θ × ψ` from
+/// `J_r⁻¹`). Linearized at θ̂ = 0 the filter credited the flexure with twice the
+/// separation it gives; handed its truth, a blind draw with flexure about x alone, no
+/// motion and attitude matching only ended with the misalignment about y 6.4σ off
+/// (`docs/model-learning.md`, session 10).
+/// `jr_inv_a`: `J_r⁻¹(â)`; `jr_mu_theta`: `J_r(μ̂ + θ̂)`.
+pub fn attitude_rows<T: Real, const S: usize>(
+    jr_inv_a: &Matrix3<T>,
+    jr_mu_theta: &Matrix3<T>,
+) -> Rows<T, S> {
+    let j = jr_inv_a * jr_mu_theta;
+    rows_from_blocks(&[(PSI, *jr_inv_a), (MU, j), (TH, j)])
 }
 
 /// Angular-rate matching `z_ω = ω_s − b̂_g − Exp(μ̂)ᵀ ω_m` (rad/s, slave body frame),

@@ -98,6 +98,17 @@ pub fn right_jacobian<T: Real>(phi: &Vector3<T>) -> Matrix3<T> {
     Matrix3::identity() - k * c1 + k * k * c2
 }
 
+/// Inverse right Jacobian of SO(3) for a small rotation vector `a` (rad):
+/// `Log(Exp(a) Exp(δ)) ≈ a + J_r⁻¹(a) δ`, by its series `I + ½[a×] + (1/12)[a×]²`. The
+/// first term left out, `|a|⁴/720` relative, is below `f32`'s resolution for `|a|` under
+/// 0.05 rad; it serves the attitude residual's predicted value (a flexure angle, a few
+/// milliradians).
+#[inline]
+pub fn inverse_right_jacobian_small<T: Real>(a: &Vector3<T>) -> Matrix3<T> {
+    let k = skew(a);
+    Matrix3::identity() + k * T::of(0.5) + k * k * T::of(1.0 / 12.0)
+}
+
 /// `((1 − cos a)/a², (a − sin a)/a³)` of an angle `a` (rad) by their Taylor series to
 /// `a⁶`, for `a` below [`Real::RIGHT_JACOBIAN_SERIES_BELOW`] (`f32` only: 0.5 rad, where
 /// the closed forms lose up to half their digits to cancellation in `f32`). The first

@@ -12,15 +12,18 @@
 //!
 //! Terms a linear filter drops, which this test therefore does not claim: products
 //! of two states, e.g. ∂(J_r(μ+θ) θ̇)/∂θ = ½[θ̇×], of relative size |θ̇|/|ω| ≈ 0.3%
-//! on the rate rows at a 1-arcmin flexure rocking at 1 rad/s.
+//! on the rate rows at a 1-arcmin flexure rocking at 1 rad/s. The attitude rows are
+//! the exception, checked at a flexure away from zero as well
+//! (`attitude_rows_match_at_the_flexure_estimate`): there the product of θ with ψ is
+//! what tells ψ from δμ, and the filter linearizes at its estimate θ̂.
 
 use flexcal_core::earth::{self, Position};
 use flexcal_core::model::{self, LeverBending, N};
-use flexcal_core::rotation::{exp_so3, right_jacobian};
+use flexcal_core::rotation::{exp_so3, inverse_right_jacobian_small, right_jacobian};
 use flexcal_sim::sim::motion::MasterAttitude;
 use flexcal_sim::sim::scenario::MotionSpec;
 use flexcal_sim::sim::{slave_truth, Fixed};
-use nalgebra::{SVector, Vector3};
+use nalgebra::{Matrix3, SVector, Vector3};
 
 struct Setup {
     fx: Fixed,
@@ -95,7 +98,7 @@ fn check(bending: LeverBending) {
     let w_m_bs = exp_so3(&mu_hat).transpose() * w_ib_bm;
     let rows: [model::Rows<f64>; 3] = [
         model::velocity_rows(&s.master.c_bm_n, &w_eb_bm, Some(&s.fx.r_bend)),
-        model::attitude_rows(&jr),
+        model::attitude_rows(&Matrix3::identity(), &jr),
         model::rate_rows(&w_m_bs, &jr),
     ];
     let scale = |j: usize| match j / 3 {
@@ -139,4 +142,52 @@ fn measurement_rows_match_nonlinear_measurements_uniform_arc() {
 #[test]
 fn measurement_rows_match_nonlinear_measurements_paper_bending() {
     check(LeverBending::Paper);
+}
+
+/// The attitude rows where the filter stands, a flexure estimate θ̂ of 7 arcmin, against
+/// finite differences of the nonlinear residual in ψ, δμ and θ. The rows of θ̂ = 0
+/// (`I` at ψ, `J_r(μ̂)` at δμ and θ) are off by `½[â×]` there, 1e-3 of the block: this
+/// fails with them.
+#[test]
+fn attitude_rows_match_at_the_flexure_estimate() {
+    let s = setup(LeverBending::UniformArc);
+    let theta_hat = Vector3::new(2e-3, -1.5e-3, 1e-3);
+    let mut x0 = SVector::<f64, N>::zeros();
+    for k in 0..3 {
+        x0[model::TH + k] = theta_hat[k];
+    }
+    let jr = right_jacobian(&s.fx.mu);
+    let rows: model::Rows<f64> = model::attitude_rows(
+        &inverse_right_jacobian_small(&(jr * theta_hat)),
+        &right_jacobian(&(s.fx.mu + theta_hat)),
+    );
+    for j in [model::PSI, model::MU, model::TH]
+        .iter()
+        .flat_map(|&b| b..b + 3)
+    {
+        // The filter's question: how the residual moves with the truth at fixed
+        // estimates. `residuals` holds the truth's mounting and moves the estimate
+        // μ̂ = μ − δμ; here the truth's mounting moves by δμ under a fixed μ̂ (the two
+        // agree at θ = 0 only).
+        let h = 1e-8;
+        let at = |step: f64| {
+            let mut x = x0;
+            x[j] += step;
+            let mut moved = setup(LeverBending::UniformArc);
+            if (model::MU..model::MU + 3).contains(&j) {
+                moved.fx.mu[j - model::MU] += step;
+            }
+            residuals(&moved, &x)
+        };
+        let (zp, zm) = (at(h), at(-h));
+        for axis in 0..3 {
+            let fd = (zp[1][axis] - zm[1][axis]) / (2.0 * h);
+            let model_v = rows[axis][j];
+            let tol = 1e-5;
+            assert!(
+                (fd - model_v).abs() <= tol,
+                "H[attitude {axis}, state {j}] at θ̂ = {theta_hat:?}: model {model_v:.8e}, finite difference {fd:.8e} (tolerance {tol:.0e})"
+            );
+        }
+    }
 }
