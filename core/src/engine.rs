@@ -1369,8 +1369,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             let z = model::attitude_residual(&self.misalignment, &c_bm_n, &dcm(&slave.q_b_n));
             // The flexure at the matching time, θ(t_s) = θ − lag θ̇: the linearization point.
             let kf = &self.kf;
-            let theta =
-                Vector3::from_fn(|k, _| kf.state_at(TH + k) - lag * kf.state_at(THD + k));
+            let theta = Vector3::from_fn(|k, _| kf.state_at(TH + k) - lag * kf.state_at(THD + k));
             let mut rows = model::attitude_rows::<T, S>(
                 &inverse_right_jacobian_small(&(jr * theta)),
                 &right_jacobian(&(self.misalignment + theta)),
