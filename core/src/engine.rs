@@ -824,8 +824,13 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// The slave time up to which the solution must be integrated before the master
     /// message stamped `t` is matched: its time of validity `t − τ̂`. With a delay in the
     /// layout the matching time falls anywhere between filter epochs, and the flexure
-    /// states belong to the epoch that ends the period containing it (`flexure_lag`), so
-    /// the slave goes on to that epoch first.
+    /// states are read from the nearer epoch (`flexure_lag`): in the first half of a
+    /// period from the epoch before it (the slave goes to `t − τ̂`), in the second half
+    /// from the epoch that ends it (the slave goes on to that epoch first). Reading
+    /// from the epoch after it alone put a whole period between the flexure states
+    /// and a matching time just past an epoch (a delay estimate crossing zero), whose
+    /// linear read-back then missed the flexure's curvature and its rate's change:
+    /// resets and gated innovations on a flexing draw (docs/diagnosis.md "Session 10").
     fn needed_until(&self, t: f64) -> f64 {
         let t_s = t - self.delay_at(t);
         if !self.has_delay() {
@@ -839,7 +844,12 @@ impl<T: Real, const S: usize> Engine<T, S> {
                     t_s
                 } else {
                     let k = libm::ceil((t_s - ep.next_t) / period - 1e-6).max(0.0);
-                    ep.next_t + k * period
+                    let after = ep.next_t + k * period;
+                    if t_s - (after - period) <= 0.5 * period {
+                        t_s
+                    } else {
+                        after
+                    }
                 }
             }
             _ => t_s,
@@ -864,15 +874,14 @@ impl<T: Real, const S: usize> Engine<T, S> {
     }
 
     /// How long before the flexure states' epoch (the last time update) slave time
-    /// `t_s` is (s, ≥ 0 once `needed_until` held).
+    /// `t_s` is (s; from −½ period, after that epoch, once `needed_until` held).
     fn flexure_lag(&self, t_s: f64) -> f64 {
         if !self.has_delay() {
             // Matched at the epoch (`needed_until`): the declared model as it always was.
             return 0.0;
         }
-        self.epoch.map_or(0.0, |ep| {
-            (ep.next_t - self.cfg.filter_period_s - t_s).max(0.0)
-        })
+        self.epoch
+            .map_or(0.0, |ep| ep.next_t - self.cfg.filter_period_s - t_s)
     }
 
     /// Integrates held IMU samples as far as the waiting master messages need (the
@@ -1219,12 +1228,11 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// 64 rates spanned 6.4 s, longer than a ship's roll period, and the parabola's
     /// slope was no angular acceleration (a constant 17 ms delay, blind draw 102 with a
     /// 10 Hz master: 13.75 ± 0.04 ms with the rate channel, 17.00 ± 0.07 without it).
-    /// Zero until the window is covered by at least `RATE_MIN` rates spanning no gap.
-    fn master_rate_slope(&self, t_msg: f64) -> Vector3<T> {
+    /// `None` until the window is covered by at least `RATE_MIN` rates spanning no gap
+    /// (and for a master that gives no rate).
+    fn master_rate_slope(&self, t_msg: f64) -> Option<Vector3<T>> {
         let rates = &self.past_master_rates;
-        let (Some(&(oldest, _)), Some(&(t1, _))) = (rates.front(), rates.back()) else {
-            return Vector3::zeros();
-        };
+        let (&(oldest, _), &(t1, _)) = (rates.front()?, rates.back()?);
         let from = t1 - RATE_WINDOW_S;
         let window = || rates.iter().filter(move |r| r.0 >= from);
         let n = window().count();
@@ -1232,7 +1240,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         let covered = rates.len() == RATE_HISTORY || oldest < from;
         let span_ok = t1 - t0 <= 1.5 * n.saturating_sub(1) as f64 * self.cfg.filter_period_s;
         if n < RATE_MIN || !covered || !span_ok || t1 <= t0 {
-            return Vector3::zeros();
+            return None;
         }
         // Normal equations of w = a + b u + c u², u = t − t̄ (f64 sums, per-axis right sides).
         let t_mean = window().map(|r| r.0).sum::<f64>() / n as f64;
@@ -1245,15 +1253,12 @@ impl<T: Real, const S: usize> Engine<T, S> {
             let w64 = nalgebra::Vector3::new(w.x.to_f64(), w.y.to_f64(), w.z.to_f64());
             rhs += basis * w64.transpose();
         }
-        let Some(inv) = m.try_inverse() else {
-            return Vector3::zeros();
-        };
         // Rows of `coef`: a, b, c; columns: axes.
-        let coef = inv * rhs;
+        let coef = m.try_inverse()? * rhs;
         let u_end = t_msg - t_mean;
-        Vector3::from_fn(|axis, _| {
+        Some(Vector3::from_fn(|axis, _| {
             T::of(mat::get(&coef, 1, axis) + 2.0 * u_end * mat::get(&coef, 2, axis))
-        })
+        }))
     }
 
     /// The columns' ingredients of the augmented blocks at slave time `t_s`; `here`: the
@@ -1271,19 +1276,33 @@ impl<T: Real, const S: usize> Engine<T, S> {
         let rate = self.buffer.rate_at(t_s).ok();
         let w_ib_bs = rate.map_or(Vector3::zeros(), |r| r.raw_b - self.gyro_bias);
         let f_bs = rate.map_or(Vector3::zeros(), |r| r.f_raw_b - self.accel_bias);
-        // The master's angular acceleration from its previous `RATE_HISTORY` rates, in
-        // the slave body. The master's rate is what a delay shifts; the slave's own rate
-        // would add the flexure's acceleration, which the delay does not move, and the
-        // current message's rate would put its noise into the column of its own
-        // innovation. Noise in this column biases the delay even from past messages (the
-        // flexure states carry their noise too), hence a long window.
-        let w_dot_bs = if self.has_delay() {
-            exp_so3(&self.misalignment).transpose() * self.master_rate_slope(t)
-        } else {
-            Vector3::zeros()
-        };
         let w_ie = here.earth_rate_n();
         let w_en = here.transport_rate_n(&slave.v_n);
+        // What a delay moves is the master. The slave's own gyro also senses the
+        // flexure's rate of the moment, which the filter has not predicted and which is in
+        // the same attitude innovation (errors in variables: a spurious delay of 2 ms on a
+        // clean flexing draw, docs/diagnosis.md "Session 10"); so the attitude column is
+        // the current master message's rate (its noise is not in the attitude
+        // innovation), and the rate column the derivative of a parabola through the
+        // master's previous rates (the current one's noise is in its own innovation; past
+        // noise biases through the flexure states, hence a long window). For a master
+        // that gives no rate (a rate from attitude differences would carry the current
+        // attitude noise), or before the window is covered, the slave's rate. The
+        // velocity column stays the slave's sensed acceleration: the master's velocity
+        // carries its own smooth error, whose white increments bias it the same way.
+        let m_bs = exp_so3(&self.misalignment).transpose();
+        let slope = if self.has_delay() {
+            self.master_rate_slope(t)
+        } else {
+            None
+        };
+        let (w_nb_bs, w_dot_bs) = match slope {
+            Some(w_dot) => (m_bs * (w_eb_bm - c_bm_n.transpose() * w_en), m_bs * w_dot),
+            None => (
+                w_ib_bs - c_bs_n.transpose() * (w_ie + w_en),
+                Vector3::zeros(),
+            ),
+        };
         // v̇ = C f + g − (2ω_ie + ω_en) × v, from the sensed force (not from differences
         // of the snapshots, which closed-loop corrections make jump).
         let v_dot_n =
@@ -1295,7 +1314,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             w_eb_bm: *w_eb_bm,
             lever_v_n: c_bm_n * w_eb_bm.cross(&self.cfg.lever_arm_m),
             v_dot_n,
-            w_nb_bs: w_ib_bs - c_bs_n.transpose() * (w_ie + w_en),
+            w_nb_bs,
             w_dot_bs,
             w_ib_bs,
             f_bs,
