@@ -1453,18 +1453,19 @@ fn update_n<T: Real>(
         }
     }
     // Then U two rows at a time (contiguous), each row's b_i = (P h)_i ending in its
-    // state's step: K = P h / s, x ← x + K ν. Rows i and i + 1 both from column
-    // s = max(lo, i), b from zero: a row through its own column (U(i, i) = 1 stored, kept
-    // as 1 + λ_i 0) takes b_i = 0 + g_i, its value at the column sweep's column i, and
-    // through the columns before it (zeros stored, g = 0 before lo) stays as it was;
-    // the columns before lo are the identity's steps.
+    // state's step: K = P h / s, x ← x + K ν. Rows i and i + 1 both from a column at or
+    // before max(lo, i), b from zero: a row through its own column (U(i, i) = 1 stored,
+    // kept as 1 + λ_i 0) takes b_i = 0 + g_i, its value at the column sweep's column i;
+    // through the columns before it (zeros stored, b = 0) it stays as it was, and so do
+    // the columns before lo (λ = g = 0, the identity's steps). So the start is moved back
+    // to make the columns a multiple of four where it can (no remainder loop).
     let step = innovation / s;
     let (lambda, g) = (&*f, &*g);
-    let mut pairs = u.chunks_exact_mut(2 * n.max(1));
+    let mut pairs = u.chunks_exact_mut((2 * n).max(1));
     let mut x2 = xs.chunks_exact_mut(2);
     for (p, (rows, x)) in (&mut pairs).zip(&mut x2).enumerate() {
         let from = lo.max(2 * p);
-        let (top, bottom) = rows.split_at_mut(n);
+        let (top, bottom) = rows.split_at_mut(n.min(rows.len()));
         let (b0, b1) = match (
             top.get_mut(from..hi),
             bottom.get_mut(from..hi),
