@@ -546,8 +546,9 @@ fn rows_of_u<T: Real, const N: usize>(u: &mut [T]) {
 /// row `i` zero before column `lo[i]`), `D` in `d`, `W_Q` in `q`. The rows from the last
 /// up, each earlier row made `Dw`-orthogonal to it, give `U` and `D` with
 /// `U D Uᵀ = W Dw Wᵀ`: once row `j` is used its place in `u` takes column `j` of `U`, so
-/// `u` ends column-major like the filter's `U`. Each `D_j` below `floor` is raised to
-/// it; returns how many were.
+/// `u` ends column-major (the caller turns it into the filter's rows with [`rows_of_u`]:
+/// W's rows are still read when their column of `U` is known). Each `D_j` below `floor`
+/// is raised to it; returns how many were.
 ///
 /// States from `t0` on are *static*: their rows of W are U's (Φ the identity there) and
 /// take no noise. Their pivots then leave D and their rows as they are, and take each
@@ -873,8 +874,8 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// start (all zeros and ones, so it can be written straight into its place; U's stored
     /// unit diagonal too is left to the start: with `D = 0` the covariance is zero either
     /// way). `SMatrix::identity()` or `mat::zeros()` for U here made the board's
-    /// `configure_*` hold a second `N × N` matrix on the stack (+1.8 kB declared, +4.4 kB
-    /// at 33 states).
+    /// `configure_*` hold a second `N × N` matrix in its frame (+1.8 kB declared, +4.4 kB
+    /// at 33 states; the stack's peak +288 B and +1.6 kB).
     #[inline(always)]
     pub fn unstarted(variance_floor: T) -> Self {
         Self {
@@ -1338,8 +1339,9 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// `z`, noise variance `r`, and gate `gate` in standard deviations, in the factors
     /// (Bierman): `f = Uᵀ h` over h's non-zeros, `g = D f`, the innovation variance
     /// `r + Σ f_j g_j` (a sum of terms that are not negative: no cancellation, where
-    /// `h P hᵀ` of a precise measurement cancels to below `f32`'s resolution), then U and
-    /// D column by column. Each conditional variance below the floor is raised to it.
+    /// `h P hᵀ` of a precise measurement cancels to below `f32`'s resolution), then D and
+    /// λ column by column and U two rows at a time (the column sweep's arithmetic, see
+    /// [`bierman_rows`]). Each conditional variance below the floor is raised to it.
     pub fn update_scalar(&mut self, h: &SVector<T, N>, z: T, r: T, gate: T) -> ScalarUpdate<T> {
         let mut scratch = [[T::zero(); N]; 2];
         let [f, g] = &mut scratch;
