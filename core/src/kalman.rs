@@ -342,21 +342,21 @@ fn bierman_rows<T: Real>(
             let (u0, u1, u2, u3) = (*p0, *p1, *p2, *p3);
             let (v0, v1, v2, v3) = (*q0, *q1, *q2, *q3);
             *p0 = u0 + l0 * b0;
-            b0 = b0 + u0 * g0;
+            b0 += u0 * g0;
             *q0 = v0 + l0 * b1;
-            b1 = b1 + v0 * g0;
+            b1 += v0 * g0;
             *p1 = u1 + l1 * b0;
-            b0 = b0 + u1 * g1;
+            b0 += u1 * g1;
             *q1 = v1 + l1 * b1;
-            b1 = b1 + v1 * g1;
+            b1 += v1 * g1;
             *p2 = u2 + l2 * b0;
-            b0 = b0 + u2 * g2;
+            b0 += u2 * g2;
             *q2 = v2 + l2 * b1;
-            b1 = b1 + v2 * g2;
+            b1 += v2 * g2;
             *p3 = u3 + l3 * b0;
-            b0 = b0 + u3 * g3;
+            b0 += u3 * g3;
             *q3 = v3 + l3 * b1;
-            b1 = b1 + v3 * g3;
+            b1 += v3 * g3;
         }
     }
     let rest = p4
@@ -368,9 +368,9 @@ fn bierman_rows<T: Real>(
     for (((p, q), &l), &gk) in rest {
         let (u0, v0) = (*p, *q);
         *p = u0 + l * b0;
-        b0 = b0 + u0 * gk;
+        b0 += u0 * gk;
         *q = v0 + l * b1;
-        b1 = b1 + v0 * gk;
+        b1 += v0 * gk;
     }
     (b0, b1)
 }
