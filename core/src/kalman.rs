@@ -199,8 +199,9 @@ pub struct Kalman<T: Real, const N: usize> {
     state_at: [u8; N],
     /// The scaled state; this and every field below in the internal order.
     xs: SVector<T, N>,
-    /// `U(i, j)`, `i < j`, at `i + j N` (column-major, strictly above the diagonal; the
-    /// unit diagonal and the lower triangle are never read).
+    /// `U(i, j)` at `i N + j` (row-major: row `i` of U contiguous, as `f = Uᵀ h` and
+    /// Bierman's sweep read it, and as the time update's Gram-Schmidt matrix starts),
+    /// the unit diagonal and zeros below it stored too (nalgebra's element `(j, i)`).
     u: SMatrix<T, N, N>,
     /// `D_j`.
     d: SVector<T, N>,
@@ -289,14 +290,12 @@ fn each_strided<T: Real>(dst: &mut [T], src: &[T], n: usize, mut op: impl FnMut(
 }
 
 /// `dst[m − k] += a U(k, m)` for `m ≥ k` (`dst` starts at column `k`; `U(k, k) = 1`), from
-/// `u` (column-major, `n × n`): row `k` of U is one element per column, `n` apart.
+/// `u` (row-major, `n × n`): row `k` of U after its diagonal, contiguous.
 #[inline(always)]
 fn add_urow<T: Real>(dst: &mut [T], a: T, u: &[T], k: usize, n: usize) {
     if let Some((first, rest)) = dst.split_first_mut() {
         *first += a;
-        each_strided(rest, u.get((k + 1) * n + k..).unwrap_or(&[]), n, |e, p| {
-            *e += a * p
-        });
+        axpy(rest, a, u.get(k * n + k + 1..(k + 1) * n).unwrap_or(&[]));
     }
 }
 
@@ -316,34 +315,64 @@ fn sum_into<T: Real>(mut acc: T, v: &[T]) -> T {
     acc
 }
 
-/// One column of Bierman's update: for every row `i` above the column's diagonal,
-/// `U(i, j) ← U(i, j) + λ b_i` and `b_i ← b_i + U(i, j)_old g_j` (four rows per loop turn;
-/// each element's arithmetic the plain loop's). The eight values are read before anything
-/// is written: otherwise the compiler, not knowing that `col` and `b` do not overlap once
-/// this is inlined, reads `b` again after each write to `col`.
+/// Two rows `i`, `i + 1` of Bierman's update over the same columns: for every column `k`
+/// of `r0` and `r1`, `U(·, k) ← U(·, k) + λ_k b` and then `b ← b + U(·, k)_old g_k`, each
+/// row's `b` starting as the columns before left it; returns the two `b` at the end (rows
+/// of `P h`). Each element's arithmetic is the column sweep's (λ and g do not depend on U,
+/// so the columns' passes over U can be taken a row at a time, in the same order along
+/// each row); λ_k and g_k read once for both rows, four columns per loop turn.
 #[inline(always)]
-fn bierman_column<T: Real>(col: &mut [T], b: &mut [T], lambda: T, g: T) {
-    let mut c4 = col.chunks_exact_mut(4);
-    let mut b4 = b.chunks_exact_mut(4);
-    for (c, bb) in (&mut c4).zip(&mut b4) {
-        if let ([c0, c1, c2, c3], [b0, b1, b2, b3]) = (c, bb) {
-            let (u0, u1, u2, u3) = (*c0, *c1, *c2, *c3);
-            let (v0, v1, v2, v3) = (*b0, *b1, *b2, *b3);
-            *c0 = u0 + lambda * v0;
-            *c1 = u1 + lambda * v1;
-            *c2 = u2 + lambda * v2;
-            *c3 = u3 + lambda * v3;
-            *b0 = v0 + u0 * g;
-            *b1 = v1 + u1 * g;
-            *b2 = v2 + u2 * g;
-            *b3 = v3 + u3 * g;
+fn bierman_rows<T: Real>(
+    r0: &mut [T],
+    r1: &mut [T],
+    lambda: &[T],
+    g: &[T],
+    (mut b0, mut b1): (T, T),
+) -> (T, T) {
+    let mut p4 = r0.chunks_exact_mut(4);
+    let mut q4 = r1.chunks_exact_mut(4);
+    let mut l4 = lambda.chunks_exact(4);
+    let mut g4 = g.chunks_exact(4);
+    for (((p, q), l), gg) in (&mut p4).zip(&mut q4).zip(&mut l4).zip(&mut g4) {
+        if let ([p0, p1, p2, p3], [q0, q1, q2, q3], [l0, l1, l2, l3], [g0, g1, g2, g3]) =
+            (p, q, l, gg)
+        {
+            let (l0, l1, l2, l3) = (*l0, *l1, *l2, *l3);
+            let (g0, g1, g2, g3) = (*g0, *g1, *g2, *g3);
+            let (u0, u1, u2, u3) = (*p0, *p1, *p2, *p3);
+            let (v0, v1, v2, v3) = (*q0, *q1, *q2, *q3);
+            *p0 = u0 + l0 * b0;
+            b0 += u0 * g0;
+            *q0 = v0 + l0 * b1;
+            b1 += v0 * g0;
+            *p1 = u1 + l1 * b0;
+            b0 += u1 * g1;
+            *q1 = v1 + l1 * b1;
+            b1 += v1 * g1;
+            *p2 = u2 + l2 * b0;
+            b0 += u2 * g2;
+            *q2 = v2 + l2 * b1;
+            b1 += v2 * g2;
+            *p3 = u3 + l3 * b0;
+            b0 += u3 * g3;
+            *q3 = v3 + l3 * b1;
+            b1 += v3 * g3;
         }
     }
-    for (c, bi) in c4.into_remainder().iter_mut().zip(b4.into_remainder()) {
-        let (u0, v0) = (*c, *bi);
-        *c = u0 + lambda * v0;
-        *bi = v0 + u0 * g;
+    let rest = p4
+        .into_remainder()
+        .iter_mut()
+        .zip(q4.into_remainder())
+        .zip(l4.remainder())
+        .zip(g4.remainder());
+    for (((p, q), &l), &gk) in rest {
+        let (u0, v0) = (*p, *q);
+        *p = u0 + l * b0;
+        b0 += u0 * gk;
+        *q = v0 + l * b1;
+        b1 += v0 * gk;
     }
+    (b0, b1)
 }
 
 /// The process noise's part of the weighted Gram-Schmidt matrix of a time update: `Q`'s
@@ -492,8 +521,9 @@ fn mark<const N: usize>(above: &mut [u64; N], i: usize, j: usize) {
 }
 
 /// Column-major unit upper triangular `U` (entries above the diagonal) turned in place
-/// into its rows, row-major: row `i` at `i N`, `1` on the diagonal, zeros before it: the
-/// rows of `W = Φ U` where Φ is the identity.
+/// into its rows, row-major: row `i` at `i N`, `1` on the diagonal, zeros before it (the
+/// filter's storage, and the rows of `W = Φ U` where Φ is the identity). The time
+/// update's Gram-Schmidt leaves U column-major; a start factors P₀ column-major.
 #[inline(always)]
 fn rows_of_u<T: Real, const N: usize>(u: &mut [T]) {
     for i in 0..N {
@@ -511,25 +541,14 @@ fn rows_of_u<T: Real, const N: usize>(u: &mut [T]) {
     }
 }
 
-/// [`rows_of_u`] undone: U's rows (row-major, upper triangle) back into its columns.
-fn rows_to_cols<T: Real, const N: usize>(u: &mut [T]) {
-    for i in 0..N {
-        for k in i + 1..N {
-            let v = u.get(i * N + k).copied().unwrap_or_else(T::zero);
-            if let Some(e) = u.get_mut(k * N + i) {
-                *e = v;
-            }
-        }
-    }
-}
-
 /// The modified weighted Gram-Schmidt orthogonalization (Thornton) of
 /// `W = [W_1 | W_Q]` with weights `diag(D, D_Q)`: the rows of `W_1` in `u` (row-major,
 /// row `i` zero before column `lo[i]`), `D` in `d`, `W_Q` in `q`. The rows from the last
 /// up, each earlier row made `Dw`-orthogonal to it, give `U` and `D` with
 /// `U D Uᵀ = W Dw Wᵀ`: once row `j` is used its place in `u` takes column `j` of `U`, so
-/// `u` ends column-major like the filter's `U`. Each `D_j` below `floor` is raised to
-/// it; returns how many were.
+/// `u` ends column-major (the caller turns it into the filter's rows with [`rows_of_u`]:
+/// W's rows are still read when their column of `U` is known). Each `D_j` below `floor`
+/// is raised to it; returns how many were.
 ///
 /// States from `t0` on are *static*: their rows of W are U's (Φ the identity there) and
 /// take no noise. Their pivots then leave D and their rows as they are, and take each
@@ -852,7 +871,11 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     }
 
     /// A filter with zero state and covariance and unit scales, for [`Kalman::restart`] to
-    /// start (all zeros and ones, so it can be written straight into its place).
+    /// start (all zeros and ones, so it can be written straight into its place; U's stored
+    /// unit diagonal too is left to the start: with `D = 0` the covariance is zero either
+    /// way). `SMatrix::identity()` or `mat::zeros()` for U here made the board's
+    /// `configure_*` hold a second `N × N` matrix in its frame (+1.8 kB declared, +4.4 kB
+    /// at 33 states; the stack's peak +288 B and +1.6 kB).
     #[inline(always)]
     pub fn unstarted(variance_floor: T) -> Self {
         Self {
@@ -913,6 +936,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
                 *e = dj.max(T::zero());
             }
         }
+        rows_of_u::<T, N>(self.u.as_mut_slice());
         self.xs.fill(T::zero());
         self.floor = variance_floor;
     }
@@ -961,6 +985,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         self.xs.fill(T::zero());
         self.floor = variance_floor;
         self.order_static_last(is_static);
+        rows_of_u::<T, N>(self.u.as_mut_slice());
     }
 
     /// Moves the states `is_static` names behind the others (see [`static_last`]).
@@ -1037,7 +1062,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             if r == c {
                 T::one()
             } else {
-                u.get(c * N + r).copied().unwrap_or_else(T::zero)
+                u.get(r * N + c).copied().unwrap_or_else(T::zero)
             }
         };
         let mut acc = T::zero();
@@ -1054,12 +1079,8 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     fn scaled_diag(&self, b: usize) -> T {
         let (u, d) = (self.u.as_slice(), self.d.as_slice());
         let mut acc = T::zero() + d.get(b).copied().unwrap_or_else(T::zero);
-        let row = u
-            .get((b + 1) * N + b..)
-            .unwrap_or(&[])
-            .iter()
-            .step_by(N.max(1));
-        for (&ubk, &dk) in row.zip(d.get(b + 1..).unwrap_or(&[])) {
+        let row = u.get(b * N + b + 1..(b + 1) * N).unwrap_or(&[]);
+        for (&ubk, &dk) in row.iter().zip(d.get(b + 1..).unwrap_or(&[])) {
             acc += ubk * ubk * dk;
         }
         acc
@@ -1138,7 +1159,6 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             }
         });
         let u = self.u.as_mut_slice();
-        rows_of_u::<T, N>(u);
         let mut lo: [u8; N] = core::array::from_fn(|i| i as u8);
         for i in internal {
             if let (Some(row), Some(l)) = (u.get_mut(i * N..(i + 1) * N), lo.get_mut(i)) {
@@ -1147,6 +1167,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             }
         }
         orthogonalize(u, &mut lo, &mut q, self.d.as_mut_slice(), floor, N);
+        rows_of_u::<T, N>(u);
     }
 
     /// Scales state `i` by `d > 0`: `x_i ← d x_i`, row and column `i` of P by `d` (`P_ii`
@@ -1173,8 +1194,9 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             let f = if j > i { d } else { inv };
             if j != i {
                 let (r, c) = (i.min(j), i.max(j));
-                let v = mat::get(&self.u, r, c) * f;
-                mat::set(&mut self.u, r, c, v);
+                // U(r, c) is nalgebra's element (c, r) (row-major).
+                let v = mat::get(&self.u, c, r) * f;
+                mat::set(&mut self.u, c, r, v);
             }
         }
     }
@@ -1248,6 +1270,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             self.floor,
             t0,
         );
+        rows_of_u::<T, N>(self.u.as_mut_slice());
     }
 
     /// The time update's `x ← Φ x` and the first part of its Gram-Schmidt matrix,
@@ -1267,7 +1290,6 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         let mut x_new = [T::zero(); R];
         let mut check = T::zero();
         let u = self.u.as_mut_slice();
-        rows_of_u::<T, N>(u);
         let rows = active
             .iter_mut()
             .zip(active_lo.iter_mut())
@@ -1295,7 +1317,6 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             check = sum_into(check, row);
         }
         if !check.is_finite() {
-            rows_to_cols::<T, N>(u);
             return None;
         }
         for (&xn, &i) in x_new.iter().zip(phi.index.iter()) {
@@ -1318,11 +1339,12 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// `z`, noise variance `r`, and gate `gate` in standard deviations, in the factors
     /// (Bierman): `f = Uᵀ h` over h's non-zeros, `g = D f`, the innovation variance
     /// `r + Σ f_j g_j` (a sum of terms that are not negative: no cancellation, where
-    /// `h P hᵀ` of a precise measurement cancels to below `f32`'s resolution), then U and
-    /// D column by column. Each conditional variance below the floor is raised to it.
+    /// `h P hᵀ` of a precise measurement cancels to below `f32`'s resolution), then D and
+    /// λ column by column and U two rows at a time (the column sweep's arithmetic, see
+    /// [`bierman_rows`]). Each conditional variance below the floor is raised to it.
     pub fn update_scalar(&mut self, h: &SVector<T, N>, z: T, r: T, gate: T) -> ScalarUpdate<T> {
-        let mut scratch = [[T::zero(); N]; 3];
-        let [f, g, b] = &mut scratch;
+        let mut scratch = [[T::zero(); N]; 2];
+        let [f, g] = &mut scratch;
         let k = Factors {
             xs: self.xs.as_mut_slice(),
             u: self.u.as_mut_slice(),
@@ -1332,14 +1354,14 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             floor: self.floor,
             health: &mut self.health,
         };
-        update_n(k, h.as_slice(), (z, r, gate), [f, g, b])
+        update_n(k, h.as_slice(), (z, r, gate), [f, g])
     }
 }
 
 /// What [`update_n`] works on: the filter's fields (internal order), `n` = `pos.len()`.
 struct Factors<'a, T> {
     xs: &'a mut [T],
-    /// U, column-major `n × n`.
+    /// U, row-major `n × n`.
     u: &'a mut [T],
     d: &'a mut [T],
     scale: &'a [T],
@@ -1349,13 +1371,13 @@ struct Factors<'a, T> {
 }
 
 /// [`Kalman::update_scalar`] for any `n` (the board's two layouts share one copy): `h` in
-/// the caller's order, `(z, r, gate)`, three `n`-element temporaries lent by the caller.
+/// the caller's order, `(z, r, gate)`, two `n`-element temporaries (zero) lent by the caller.
 #[inline(never)]
 fn update_n<T: Real>(
     k: Factors<'_, T>,
     h: &[T],
     (z, r, gate): (T, T, T),
-    scratch: [&mut [T]; 3],
+    scratch: [&mut [T]; 2],
 ) -> ScalarUpdate<T> {
     let Factors {
         xs,
@@ -1366,7 +1388,7 @@ fn update_n<T: Real>(
         floor,
         health,
     } = k;
-    let [f, g, b] = scratch;
+    let [f, g] = scratch;
     let n = pos.len();
     // f = Uᵀ h over h's non-zeros (a row of U each, from its diagonal on), and h x.
     let mut hx = T::zero();
@@ -1409,39 +1431,67 @@ fn update_n<T: Real>(
         };
     }
     health.gated_streak = 0;
-    // Bierman: α from r up, column j of U and D_j from the old ones; b ends as P h.
+    // Bierman: α from r up, D_j and λ_j (in f_j's place) column by column; they do not
+    // depend on U. A column with f_j = 0 is the identity's step (λ_j = 0, g_j = 0); the
+    // columns before the first and after the last other one are left out.
     let mut alpha = r;
     let mut clamped = 0;
-    let steps = u
-        .chunks_exact_mut(n.max(1))
-        .zip(d.iter_mut())
-        .zip(f.iter().zip(g.iter()));
-    for (j, ((col, dj), (&fj, &gj))) in steps.enumerate() {
-        if fj == T::zero() {
-            continue; // the step is the identity (g_j = 0, λ = 0)
+    let (mut lo, mut hi) = (n, 0);
+    for (j, ((fj, dj), &gj)) in f.iter_mut().zip(d.iter_mut()).zip(g.iter()).enumerate() {
+        if *fj == T::zero() {
+            continue;
         }
+        lo = lo.min(j);
+        hi = j + 1;
         let prev = alpha;
-        alpha += fj * gj;
+        alpha += *fj * gj;
         if alpha > T::zero() {
             *dj *= prev / alpha;
         }
-        let lambda = if prev > T::zero() {
-            -fj / prev
+        *fj = if prev > T::zero() {
+            -*fj / prev
         } else {
             T::zero()
         };
-        let (above, from_j) = b.split_at_mut(j.min(b.len()));
-        bierman_column(col.get_mut(..j).unwrap_or(&mut []), above, lambda, gj);
-        if let Some(bj) = from_j.first_mut() {
-            *bj = gj;
-        }
         if *dj < floor {
             *dj = floor;
             clamped += 1;
         }
     }
-    // K = P h / s, x ← x + K ν.
-    axpy(xs, innovation / s, b);
+    // Then U two rows at a time (contiguous), each row's b_i = (P h)_i ending in its
+    // state's step: K = P h / s, x ← x + K ν. Rows i and i + 1 both from a column at or
+    // before max(lo, i), b from zero: a row through its own column (U(i, i) = 1 stored,
+    // kept as 1 + λ_i 0) takes b_i = 0 + g_i, its value at the column sweep's column i;
+    // through the columns before it (zeros stored, b = 0) it stays as it was, and so do
+    // the columns before lo (λ = g = 0, the identity's steps). So the start is moved back
+    // to make the columns a multiple of four where it can (no remainder loop).
+    let step = innovation / s;
+    let (lambda, g) = (&*f, &*g);
+    let mut pairs = u.chunks_exact_mut((2 * n).max(1));
+    let mut x2 = xs.chunks_exact_mut(2);
+    for (p, (rows, x)) in (&mut pairs).zip(&mut x2).enumerate() {
+        let from = lo.max(2 * p);
+        let (top, bottom) = rows.split_at_mut(n.min(rows.len()));
+        let (b0, b1) = match (
+            top.get_mut(from..hi),
+            bottom.get_mut(from..hi),
+            lambda.get(from..hi),
+            g.get(from..hi),
+        ) {
+            (Some(r0), Some(r1), Some(ls), Some(gs)) => {
+                bierman_rows(r0, r1, ls, gs, (T::zero(), T::zero()))
+            }
+            _ => (T::zero(), T::zero()),
+        };
+        if let [x0, x1] = x {
+            *x0 += step * b0;
+            *x1 += step * b1;
+        }
+    }
+    // An odd last row has no column after it.
+    if let (Some(x), Some(&gi)) = (x2.into_remainder().first_mut(), g.get(n - n % 2)) {
+        *x += step * gi;
+    }
     health.variance_clamped += clamped;
     health.updates += 1;
     ScalarUpdate {
