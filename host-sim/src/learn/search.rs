@@ -151,6 +151,15 @@ impl<'a> Search<'a> {
         m
     }
 
+    /// A trial model: each `(p, factor)` scaled by its factor.
+    fn scaled(&self, factors: &[(Param, f64)]) -> ModelParams {
+        let mut m = self.model.clone();
+        for &(p, f) in factors {
+            m.set(p, self.model.get(p) * f);
+        }
+        m
+    }
+
     /// For a process noise at zero: tries a ladder of sizes around `scale`; keeps the
     /// best (zero included).
     fn ladder(&mut self, p: Param, scale: f64) {
@@ -184,12 +193,37 @@ impl<'a> Search<'a> {
     /// Searches one quantity (or one per axis, `params` of the same kind) on a log scale
     /// with step `h` (natural log units).
     pub fn line(&mut self, params: &[Param], h: f64) {
+        let weights = vec![1.0; params.len()];
+        self.line_search(params, &weights, params.len() > 1, h);
+    }
+
+    /// Searches one direction on a log scale: a step `o·h` moves each `params[k]` by
+    /// `exp(weights[k]·o·h)`, all together, judged by the total likelihood. Where two
+    /// quantities are resolved only in a combination (a Gauss-Markov error's σ and
+    /// correlation time τ over a window shorter than τ, which sees its diffusion
+    /// `2σ²/τ`), a line along that combination's level set moves where coordinate
+    /// lines cannot.
+    pub fn line_along(&mut self, params: &[(Param, f64)], h: f64) {
+        let (ps, ws): (Vec<Param>, Vec<f64>) = params.iter().copied().unzip();
+        self.line_search(&ps, &ws, false, h);
+    }
+
+    /// The line search of [`Search::line`] and [`Search::line_along`]: per axis (each
+    /// axis picks by its own channels) or as one direction (picked by the total).
+    fn line_search(&mut self, params: &[Param], weights: &[f64], per_axis: bool, h: f64) {
         let starts: Vec<f64> = params.iter().map(|&p| self.model.get(p)).collect();
         if params.iter().any(|&p| self.model.get(p) <= 0.0) {
             return; // a vanished process noise stays at zero (the ladder chose it)
         }
         let before = self.current.total;
-        let per_axis = params.len() > 1;
+        let weight = |k: usize| weights.get(k).copied().unwrap_or(1.0);
+        let step = |params: &[Param], o: f64| -> Vec<(Param, f64)> {
+            params
+                .iter()
+                .enumerate()
+                .map(|(k, &p)| (p, (weight(k) * o * h).exp()))
+                .collect()
+        };
         // Offsets (in steps) tried around the current centre, and what each gave.
         let mut tried: Vec<(f64, Likelihood)> = vec![(0.0, self.current)];
         let mut centre = 0.0;
@@ -201,7 +235,7 @@ impl<'a> Search<'a> {
                 .collect();
             let models: Vec<ModelParams> = offsets
                 .iter()
-                .map(|o| self.trial(params, |_, v| v * (o * h).exp()))
+                .map(|&o| self.scaled(&step(params, o)))
                 .collect();
             let results = self.eval_all(&models);
             for (o, l) in offsets.into_iter().zip(results) {
@@ -251,10 +285,17 @@ impl<'a> Search<'a> {
         } else {
             vec![pick(&|l: &Likelihood| l.total)]
         };
+        // One direction: every quantity takes its pick.
+        let pick_of = |k: usize| {
+            picks
+                .get(if per_axis { k } else { 0 })
+                .copied()
+                .unwrap_or((0.0, None))
+        };
         let mut candidate = self.model.clone();
         for (k, &p) in params.iter().enumerate() {
-            let (o, _) = picks.get(k).copied().unwrap_or((0.0, None));
-            candidate.set(p, self.model.get(p) * (o * h).exp());
+            let (o, _) = pick_of(k);
+            candidate.set(p, self.model.get(p) * (weight(k) * o * h).exp());
         }
         let best_tried = tried
             .iter()
@@ -267,7 +308,7 @@ impl<'a> Search<'a> {
                 self.current = l;
             } else if let Some((o, bt)) = best_tried {
                 if bt.total < self.current.total {
-                    self.model = self.trial(params, |_, v| v * (o * h).exp());
+                    self.model = self.scaled(&step(params, o));
                     self.current = bt;
                 }
             }
@@ -275,10 +316,9 @@ impl<'a> Search<'a> {
         let gain = (before - self.current.total) / params.len() as f64;
         for (k, &p) in params.iter().enumerate() {
             // σ of the log-value → σ of the value (first order).
-            let sigma = picks
-                .get(k)
-                .and_then(|(_, c)| *c)
-                .map(|curv| self.model.get(p) / curv.sqrt());
+            let sigma = pick_of(k)
+                .1
+                .map(|curv| weight(k).abs() * self.model.get(p) / curv.sqrt());
             self.record(p, starts.get(k).copied().unwrap_or(0.0), sigma, gain);
         }
     }
