@@ -264,25 +264,16 @@ pub fn learn(
         );
     }
     let neg2ll_learned = s.current.total;
-    let window_evaluations = s.evaluations;
-    let mut values = s.values;
     // On the whole recording the calibration will run on: the master's smooth error
-    // again, then the channel noise matched once more.
+    // again, then the channel noise matched once more (the search's record and count
+    // carried over).
     let mut whole = Search::new(rec, s.model)?;
+    whole.values = s.values;
+    whole.evaluations += s.evaluations;
     if rec.master.len() > win.master.len() {
         refine_smooth_master(&mut whole, std::f64::consts::LN_2 / 2.0);
     }
     whole.match_noise(rec, NOISE_ITERATIONS);
-    for v in whole.values {
-        match values.iter_mut().find(|w| w.param == v.param) {
-            Some(w) => {
-                w.value = v.value;
-                w.sigma = v.sigma;
-                w.log_likelihood_gain += v.log_likelihood_gain;
-            }
-            None => values.push(v),
-        }
-    }
     let learned_config = whole.model.config();
     let (h_start, h_learned) = rayon::join(
         || holdout(rec, start, opts.holdout_fraction),
@@ -302,7 +293,7 @@ pub fn learn(
         },
         learned_config,
         adopted,
-        values,
+        values: whole.values,
         increments: inc,
         mounting,
         window_s: span,
@@ -310,7 +301,7 @@ pub fn learn(
         neg2ll_learned,
         log_likelihood_gain: (neg2ll_start - neg2ll_learned) / 2.0,
         holdout,
-        evaluations: window_evaluations + whole.evaluations,
+        evaluations: whole.evaluations,
         seconds: clock.elapsed().as_secs_f64(),
     })
 }

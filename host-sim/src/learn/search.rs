@@ -151,15 +151,6 @@ impl<'a> Search<'a> {
         m
     }
 
-    /// A trial model: each `(p, factor)` scaled by its factor.
-    fn scaled(&self, factors: &[(Param, f64)]) -> ModelParams {
-        let mut m = self.model.clone();
-        for &(p, f) in factors {
-            m.set(p, self.model.get(p) * f);
-        }
-        m
-    }
-
     /// For a process noise at zero: tries a ladder of sizes around `scale`; keeps the
     /// best (zero included).
     fn ladder(&mut self, p: Param, scale: f64) {
@@ -217,12 +208,10 @@ impl<'a> Search<'a> {
         }
         let before = self.current.total;
         let weight = |k: usize| weights.get(k).copied().unwrap_or(1.0);
-        let step = |params: &[Param], o: f64| -> Vec<(Param, f64)> {
-            params
-                .iter()
-                .enumerate()
-                .map(|(k, &p)| (p, (weight(k) * o * h).exp()))
-                .collect()
+        // The factor a step of `o` applies to `p`.
+        let factor = |p: Param, o: f64| {
+            let w = params.iter().position(|&q| q == p).map_or(1.0, weight);
+            (w * o * h).exp()
         };
         // Offsets (in steps) tried around the current centre, and what each gave.
         let mut tried: Vec<(f64, Likelihood)> = vec![(0.0, self.current)];
@@ -235,7 +224,7 @@ impl<'a> Search<'a> {
                 .collect();
             let models: Vec<ModelParams> = offsets
                 .iter()
-                .map(|&o| self.scaled(&step(params, o)))
+                .map(|&o| self.trial(params, |p, v| v * factor(p, o)))
                 .collect();
             let results = self.eval_all(&models);
             for (o, l) in offsets.into_iter().zip(results) {
@@ -295,7 +284,7 @@ impl<'a> Search<'a> {
         let mut candidate = self.model.clone();
         for (k, &p) in params.iter().enumerate() {
             let (o, _) = pick_of(k);
-            candidate.set(p, self.model.get(p) * (weight(k) * o * h).exp());
+            candidate.set(p, self.model.get(p) * factor(p, o));
         }
         let best_tried = tried
             .iter()
@@ -308,7 +297,7 @@ impl<'a> Search<'a> {
                 self.current = l;
             } else if let Some((o, bt)) = best_tried {
                 if bt.total < self.current.total {
-                    self.model = self.scaled(&step(params, o));
+                    self.model = self.trial(params, |p, v| v * factor(p, o));
                     self.current = bt;
                 }
             }
