@@ -12,11 +12,34 @@ use super::params::{ModelParams, Param};
 use super::search::LearnedValue;
 use crate::sim::{FlexureSpec, Scenario, DEG_PER_H};
 
+/// A scored quantity: one the learner searches, or one derived from several of them.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[serde(untagged)]
+pub enum Quantity {
+    /// A quantity of the learned model.
+    Learned(Param),
+    /// The driving-noise density `√(2σ²/τ)` of a smooth master error (rad/√s or
+    /// m/s/√s): over a record not many times longer than τ the likelihood resolves this
+    /// combination (the error's diffusion) and hardly σ and τ apart, which walk along
+    /// its level set (`docs/model-learning.md`, session 11).
+    SmoothDensity(SmoothDensity),
+}
+
+/// The channel of a smooth master error's driving-noise density.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SmoothDensity {
+    /// Attitude (rad/√s).
+    MasterAttitudeErrorDensity,
+    /// Velocity (m/s/√s).
+    MasterVelocityErrorDensity,
+}
+
 /// One learned quantity against the value drawn.
 #[derive(Clone, Copy, Debug, serde::Serialize)]
 pub struct ParamError {
     /// The quantity.
-    pub param: Param,
+    pub param: Quantity,
     /// Its value in the draw (the learner's unit).
     pub truth: f64,
     /// The learned value.
@@ -93,7 +116,7 @@ pub fn param_errors(
     values: &[LearnedValue],
     sc: &Scenario,
 ) -> Vec<ParamError> {
-    drawn_values(sc)
+    let mut errors: Vec<ParamError> = drawn_values(sc)
         .into_iter()
         .map(|(param, truth)| {
             let l = learned.get(param);
@@ -104,18 +127,54 @@ pub fn param_errors(
                 .filter(|_| l > 0.0)
                 .map(|s| s / l);
             ParamError {
-                param,
+                param: Quantity::Learned(param),
                 truth,
                 learned: l,
                 relative_error: l / truth - 1.0,
                 relative_sigma,
             }
         })
-        .collect()
+        .collect();
+    if let Some(e) = &sc.master.smooth_error {
+        let density = |sigma: f64, tau: f64| (2.0 * sigma * sigma / tau).sqrt();
+        let tau = learned.get(Param::MasterErrorCorrelation);
+        for (which, param, truth_sigma) in [
+            (
+                SmoothDensity::MasterAttitudeErrorDensity,
+                Param::MasterAttitudeError,
+                (e.attitude_arcsec / 3600.0).to_radians(),
+            ),
+            (
+                SmoothDensity::MasterVelocityErrorDensity,
+                Param::MasterVelocityError,
+                e.velocity_mps,
+            ),
+        ] {
+            let truth = density(truth_sigma, e.correlation_s);
+            let l = density(learned.get(param), tau);
+            errors.push(ParamError {
+                param: Quantity::SmoothDensity(which),
+                truth,
+                learned: l,
+                relative_error: l / truth - 1.0,
+                relative_sigma: None,
+            });
+        }
+    }
+    errors
 }
 
 /// The kind of a quantity in the acceptance table (per-axis quantities pooled).
-pub fn kind(p: Param) -> &'static str {
+pub fn kind(q: Quantity) -> &'static str {
+    let p = match q {
+        Quantity::Learned(p) => p,
+        Quantity::SmoothDensity(SmoothDensity::MasterAttitudeErrorDensity) => {
+            return "master attitude error density (smooth)"
+        }
+        Quantity::SmoothDensity(SmoothDensity::MasterVelocityErrorDensity) => {
+            return "master velocity error density (smooth)"
+        }
+    };
     match p {
         Param::GyroArw => "gyro angle random walk",
         Param::AccelVrw => "accel velocity random walk",
@@ -226,7 +285,7 @@ mod tests {
     #[test]
     fn medians_pool_the_axes() {
         let e = |param, relative_error, relative_sigma| ParamError {
-            param,
+            param: Quantity::Learned(param),
             truth: 1.0,
             learned: 1.0 + relative_error,
             relative_error,
