@@ -301,7 +301,20 @@ pub fn process_noise<T: Real, const S: usize>(
 /// Measurement rows of one three-axis matching measurement.
 pub type Rows<T, const S: usize = N> = [SVector<T, S>; 3];
 
-fn rows_from_blocks<T: Real, const S: usize>(blocks: &[(usize, Matrix3<T>)]) -> Rows<T, S> {
+/// The declared states' non-zero 3 × 3 blocks of one three-axis matching measurement's
+/// rows: each block's first state and the block (row = axis), at most four. Built apart
+/// from the rows ([`rows_from_blocks`]) because they do not depend on the state's
+/// dimension: the board, which instantiates the engine at two dimensions, then holds one
+/// copy of their algebra (`docs/performance.md`, "What issue12-s11 changed").
+pub type Blocks<T> = heapless::Vec<(usize, Matrix3<T>), 4>;
+
+fn blocks<T: Real>(list: &[(usize, Matrix3<T>)]) -> Blocks<T> {
+    // Every caller lists at most four: never the empty fallback.
+    Blocks::from_slice(list).unwrap_or_default()
+}
+
+/// The rows of dimension `S` holding `blocks` (zero elsewhere).
+pub fn rows_from_blocks<T: Real, const S: usize>(blocks: &Blocks<T>) -> Rows<T, S> {
     let mut rows = [mat::zeros::<T, S, 1>(); 3];
     for (axis, row) in rows.iter_mut().enumerate() {
         for (offset, b) in blocks {
@@ -325,13 +338,22 @@ pub fn velocity_rows<T: Real, const S: usize>(
     w_eb_bm: &Vector3<T>,
     r_flex: Option<&Matrix3<T>>,
 ) -> Rows<T, S> {
+    rows_from_blocks(&velocity_blocks(c_bm_n, w_eb_bm, r_flex))
+}
+
+/// [`velocity_rows`]' blocks.
+pub fn velocity_blocks<T: Real>(
+    c_bm_n: &Matrix3<T>,
+    w_eb_bm: &Vector3<T>,
+    r_flex: Option<&Matrix3<T>>,
+) -> Blocks<T> {
     match r_flex {
-        Some(r) => rows_from_blocks(&[
+        Some(r) => blocks(&[
             (V, Matrix3::identity()),
             (TH, c_bm_n * skew(w_eb_bm) * r),
             (THD, c_bm_n * r),
         ]),
-        None => rows_from_blocks(&[(V, Matrix3::identity())]),
+        None => blocks(&[(V, Matrix3::identity())]),
     }
 }
 
@@ -354,8 +376,13 @@ pub fn attitude_rows<T: Real, const S: usize>(
     jr_inv_a: &Matrix3<T>,
     jr_mu_theta: &Matrix3<T>,
 ) -> Rows<T, S> {
+    rows_from_blocks(&attitude_blocks(jr_inv_a, jr_mu_theta))
+}
+
+/// [`attitude_rows`]' blocks.
+pub fn attitude_blocks<T: Real>(jr_inv_a: &Matrix3<T>, jr_mu_theta: &Matrix3<T>) -> Blocks<T> {
     let j = jr_inv_a * jr_mu_theta;
-    rows_from_blocks(&[(PSI, *jr_inv_a), (MU, j), (TH, j)])
+    blocks(&[(PSI, *jr_inv_a), (MU, j), (TH, j)])
 }
 
 /// Angular-rate matching `z_ω = ω_s − b̂_g − Exp(μ̂)ᵀ ω_m` (rad/s, slave body frame),
@@ -363,8 +390,13 @@ pub fn attitude_rows<T: Real, const S: usize>(
 /// its increments). For a flexure linear over each filter period the rate there is
 /// the period's θ̇. `w_m_bs`: `Exp(μ̂)ᵀ ω_m`.
 pub fn rate_rows<T: Real, const S: usize>(w_m_bs: &Vector3<T>, jr_mu: &Matrix3<T>) -> Rows<T, S> {
+    rows_from_blocks(&rate_blocks(w_m_bs, jr_mu))
+}
+
+/// [`rate_rows`]' blocks.
+pub fn rate_blocks<T: Real>(w_m_bs: &Vector3<T>, jr_mu: &Matrix3<T>) -> Blocks<T> {
     let wj = skew(w_m_bs) * jr_mu;
-    rows_from_blocks(&[(MU, wj), (BG, Matrix3::identity()), (TH, wj), (THD, *jr_mu)])
+    blocks(&[(MU, wj), (BG, Matrix3::identity()), (TH, wj), (THD, *jr_mu)])
 }
 
 /// The matrix R of the bent lever arm `r = r0 + R θ` (m/rad, master body frame).
