@@ -715,35 +715,10 @@ fn dot2<T: Real>(a: &[T], b: &[T], c: &[T]) -> (T, T) {
 }
 
 /// [`axpy`] on two rows with the same `src`, each element's arithmetic its own: `src`
-/// read once for both.
+/// read once for both. A plain loop, as [`axpy`].
 #[inline(always)]
 fn axpy2<T: Real>(d0: &mut [T], d1: &mut [T], a0: T, a1: T, src: &[T]) {
-    let n = d0.len().min(d1.len()).min(src.len());
-    let (d0, d1, src) = (
-        d0.get_mut(..n).unwrap_or(&mut []),
-        d1.get_mut(..n).unwrap_or(&mut []),
-        src.get(..n).unwrap_or(&[]),
-    );
-    let (mut p4, mut q4, mut s4) = (
-        d0.chunks_exact_mut(4),
-        d1.chunks_exact_mut(4),
-        src.chunks_exact(4),
-    );
-    for ((p, q), s) in (&mut p4).zip(&mut q4).zip(&mut s4) {
-        if let ([p0, p1, p2, p3], [q0, q1, q2, q3], [s0, s1, s2, s3]) = (p, q, s) {
-            let (s0, s1, s2, s3) = (*s0, *s1, *s2, *s3);
-            *p0 += a0 * s0;
-            *p1 += a0 * s1;
-            *p2 += a0 * s2;
-            *p3 += a0 * s3;
-            *q0 += a1 * s0;
-            *q1 += a1 * s1;
-            *q2 += a1 * s2;
-            *q3 += a1 * s3;
-        }
-    }
-    let rest = p4.into_remainder().iter_mut().zip(q4.into_remainder());
-    for ((p, q), &s) in rest.zip(s4.remainder()) {
+    for ((p, q), &s) in d0.iter_mut().zip(d1.iter_mut()).zip(src) {
         *p += a0 * s;
         *q += a1 * s;
     }
