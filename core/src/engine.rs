@@ -1052,13 +1052,31 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 self.fate.initialized += 1;
                 return Some(self.initialize(&msg));
             }
-            match self.match_master(&msg) {
-                Ok(r) => {
-                    self.counters.master_matched += 1;
-                    let _ = reports.push(r);
+            // The report is written in its place in `reports` (built apart and pushed, it
+            // was copied field by field and then whole: 1.3k instructions per master
+            // update on the board), or in a spare one when `reports` is full (dropped, as
+            // before).
+            let fresh = MatchReport {
+                t: msg.t,
+                ..MatchReport::default()
+            };
+            let pushed = reports.push(fresh).is_ok();
+            let mut spare = None;
+            let report = match reports.last_mut() {
+                Some(r) if pushed => r,
+                _ => spare.insert(fresh),
+            };
+            match self.match_master(&msg, report) {
+                Ok(()) => self.counters.master_matched += 1,
+                Err(e) => {
+                    if pushed {
+                        let _ = reports.pop();
+                    }
+                    match e {
+                        AlignError::TooOld => self.counters.master_stale += 1,
+                        AlignError::NotYet => self.fate.unmatched += 1,
+                    }
                 }
-                Err(AlignError::TooOld) => self.counters.master_stale += 1,
-                Err(AlignError::NotYet) => self.fate.unmatched += 1,
             }
             self.prev_master = Some(PrevMaster {
                 t: msg.t,
@@ -1191,7 +1209,13 @@ impl<T: Real, const S: usize> Engine<T, S> {
         }
     }
 
-    fn match_master(&mut self, msg: &MasterNav<T>) -> Result<MatchReport<T>, AlignError> {
+    /// Matches `msg`: its channels' updates go into `report` (which holds its time, every
+    /// channel `None`), the estimates are fed back.
+    fn match_master(
+        &mut self,
+        msg: &MasterNav<T>,
+        report: &mut MatchReport<T>,
+    ) -> Result<(), AlignError> {
         // The master's state belongs to the slave's time t − τ̂ (τ̂ = 0 without the delay block).
         let _phase = probe::enter(Phase::Matching);
         let t_s = msg.t - self.delay_at(msg.t);
@@ -1219,13 +1243,13 @@ impl<T: Real, const S: usize> Engine<T, S> {
             clock_dt: self.clock_dt(msg.t),
         };
         let m = measure(&nominal, msg, t_s, &slave, &flexure);
-        let mut report = MatchReport {
-            t: msg.t,
-            ..MatchReport::default()
-        };
         let aug = self.cfg.augmentation;
-        let update = |engine: &mut Self, c: &Measured<T>, channel: Channel| {
-            let mut rows = model::rows_from_blocks::<T, S>(&c.blocks);
+        let update = |engine: &mut Self,
+                      c: &Measured<T>,
+                      channel: Channel,
+                      out: &mut Option<[ScalarUpdate<T>; 3]>| {
+            let mut rows: model::Rows<T, S> = [mat::zeros(), mat::zeros(), mat::zeros()];
+            model::put_blocks(&mut rows, &c.blocks);
             if let Some(sig) = &m.sig {
                 augment::add_measurement(&mut rows, &aug, channel, sig);
             }
@@ -1239,48 +1263,44 @@ impl<T: Real, const S: usize> Engine<T, S> {
                     }
                 }
             }
-            engine.update3(&rows, &c.z, c.r, engine.cfg.gate_sigma)
+            let gate = engine.cfg.gate_sigma;
+            engine.update3(&rows, &c.z, c.r, gate, out.insert([unused(); 3]));
         };
         if let Some(c) = &m.velocity {
-            report.velocity = Some(update(self, c, Channel::Velocity));
+            update(self, c, Channel::Velocity, &mut report.velocity);
         }
         if let Some((z, r)) = m.attitude {
             // Linearized at the flexure at the matching time as the velocity update left
             // it, θ(t_s) = θ − lag θ̇.
             let blocks = attitude_blocks(&m.jr, &self.misalignment, &theta_at(&self.kf));
             let c = Measured { z, blocks, r };
-            report.attitude = Some(update(self, &c, Channel::Attitude));
+            update(self, &c, Channel::Attitude, &mut report.attitude);
         }
         if let Some(c) = &m.angular_rate {
-            report.angular_rate = Some(update(self, c, Channel::AngularRate));
+            update(self, c, Channel::AngularRate, &mut report.angular_rate);
         }
         {
             let _phase = probe::enter(Phase::Engine);
             self.feedback(t_s);
-            self.reset_if_stuck(&report);
+            self.reset_if_stuck(report);
         }
         self.last_update_t = msg.t;
-        Ok(report)
+        Ok(())
     }
 
+    /// The three scalar updates of one channel's rows, their reports into `out`.
     fn update3(
         &mut self,
         rows: &model::Rows<T, S>,
         z: &Vector3<T>,
         r: Vector3<T>,
         gate: T,
-    ) -> [ScalarUpdate<T>; 3] {
-        let mut out = [ScalarUpdate {
-            innovation: T::zero(),
-            variance: T::zero(),
-            test_ratio: T::zero(),
-            accepted: false,
-        }; 3];
+        out: &mut [ScalarUpdate<T>; 3],
+    ) {
         let _phase = probe::enter(Phase::Update);
         for (((row, slot), z), r) in rows.iter().zip(out.iter_mut()).zip(z.iter()).zip(r.iter()) {
             *slot = self.kf.update_scalar(row, *z, *r, gate);
         }
-        out
     }
 
     /// Counts, per channel, the messages in a row with a rejected measurement and
@@ -1288,9 +1308,12 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// restarts from the next master message and the covariance from its initial value,
     /// while the bias and misalignment estimates are kept as the new starting point.
     fn reset_if_stuck(&mut self, report: &MatchReport<T>) {
-        let channels = [report.velocity, report.attitude, report.angular_rate];
+        // Borrowed, not copied (three scalar updates a channel: a `memcpy` each on the board).
+        let channels = [&report.velocity, &report.attitude, &report.angular_rate];
         for (streak, channel) in self.gated_streaks.iter_mut().zip(channels) {
-            let gated = channel.is_some_and(|u| u.iter().any(|s| !s.accepted));
+            let gated = channel
+                .as_ref()
+                .is_some_and(|u| u.iter().any(|s| !s.accepted));
             *streak = if gated { streak.saturating_add(1) } else { 0 };
         }
         if self
@@ -1613,5 +1636,15 @@ fn signature<T: Real>(
         theta: flexure.0,
         theta_rate: flexure.1,
         clock_dt: T::of(e.clock_dt),
+    }
+}
+
+/// A scalar update's report before the update writes it.
+fn unused<T: Real>() -> ScalarUpdate<T> {
+    ScalarUpdate {
+        innovation: T::zero(),
+        variance: T::zero(),
+        test_ratio: T::zero(),
+        accepted: false,
     }
 }
