@@ -3,7 +3,7 @@
 //! closed-loop feedback, and the estimates it produces. The same code runs on the
 //! board (f32) and the desktop (f64).
 
-use crate::align::{AlignBuffer, AlignError, SlaveAt, Snapshot};
+use crate::align::{AlignBuffer, AlignError, RateAt, SlaveAt, Snapshot};
 use crate::augment::{self, Augmentation, Channel, Effect, Signature, CLOCK_DRIFT_PRIOR_SPAN_S};
 use crate::earth::{self, Position};
 use crate::flexure::FlexureModel;
@@ -1052,13 +1052,31 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 self.fate.initialized += 1;
                 return Some(self.initialize(&msg));
             }
-            match self.match_master(&msg) {
-                Ok(r) => {
-                    self.counters.master_matched += 1;
-                    let _ = reports.push(r);
+            // The report is written in its place in `reports` (built apart and pushed, it
+            // was copied field by field and then whole: 1.3k instructions per master
+            // update on the board), or in a spare one when `reports` is full (dropped, as
+            // before).
+            let fresh = MatchReport {
+                t: msg.t,
+                ..MatchReport::default()
+            };
+            let pushed = reports.push(fresh).is_ok();
+            let mut spare = None;
+            let report = match reports.last_mut() {
+                Some(r) if pushed => r,
+                _ => spare.insert(fresh),
+            };
+            match self.match_master(&msg, report) {
+                Ok(()) => self.counters.master_matched += 1,
+                Err(e) => {
+                    if pushed {
+                        let _ = reports.pop();
+                    }
+                    match e {
+                        AlignError::TooOld => self.counters.master_stale += 1,
+                        AlignError::NotYet => self.fate.unmatched += 1,
+                    }
                 }
-                Err(AlignError::TooOld) => self.counters.master_stale += 1,
-                Err(AlignError::NotYet) => self.fate.unmatched += 1,
             }
             self.prev_master = Some(PrevMaster {
                 t: msg.t,
@@ -1191,166 +1209,49 @@ impl<T: Real, const S: usize> Engine<T, S> {
         }
     }
 
-    /// The master body's rate relative to the Earth (rad/s, master body), for the
-    /// lever-arm velocity, with the variance of its noise, the mean over the axes
-    /// (rad²/s²): from the master's rate when given (`lever_arm_rate_radps`), else from the
-    /// change of its attitude since the previous message (√2 σ_att / Δt), else zero with
-    /// no noise.
-    /// `here`: the Earth model at the master's position.
-    fn master_rate_wrt_earth(
-        &self,
+    /// Matches `msg`: its channels' updates go into `report` (which holds its time, every
+    /// channel `None`), the estimates are fed back.
+    fn match_master(
+        &mut self,
         msg: &MasterNav<T>,
-        here: &earth::Local<T>,
-        c_bm_n: &Matrix3<T>,
-    ) -> (Vector3<T>, T) {
-        let noise = &self.cfg.measurement_noise;
-        let w_ie_b = c_bm_n.transpose() * here.earth_rate_n();
-        if let Some(w) = msg.w_ib_bm {
-            let sigma = noise.lever_arm_rate_radps;
-            return (w - w_ie_b, sigma * sigma);
-        }
-        match self.prev_master {
-            Some(p) if msg.t > p.t && msg.t - p.t <= 2.5 * self.cfg.filter_period_s.max(1e-3) => {
-                let dt = T::of(msg.t - p.t);
-                let w_nb = quat_log(&(p.q_bm_n.inverse() * msg.q_bm_n)) / dt;
-                let w_en = here.transport_rate_n(&msg.v_n);
-                let sigma = axes_rms(&noise.attitude_rad) / dt;
-                (w_nb + c_bm_n.transpose() * w_en, T::of(2.0) * sigma * sigma)
-            }
-            _ => (Vector3::zeros(), T::zero()),
-        }
-    }
-
-    /// The master's angular acceleration at `t_msg`, the stamp of the message being
-    /// matched (rad/s², master body): the derivative there of a least-squares parabola
-    /// through the kept rates of the last `RATE_WINDOW_S` (a straight line's slope would
-    /// belong to the window's middle). The window is a time, not a count: at 10 Hz the
-    /// 64 rates spanned 6.4 s, longer than a ship's roll period, and the parabola's
-    /// slope was no angular acceleration (a constant 17 ms delay, blind draw 102 with a
-    /// 10 Hz master: 13.75 ± 0.04 ms with the rate channel, 17.00 ± 0.07 without it).
-    /// `None` until the window is covered by at least `RATE_MIN` rates spanning no gap
-    /// (and for a master that gives no rate).
-    fn master_rate_slope(&self, t_msg: f64) -> Option<Vector3<T>> {
-        let rates = &self.past_master_rates;
-        let (&(oldest, _), &(t1, _)) = (rates.front()?, rates.back()?);
-        let from = t1 - RATE_WINDOW_S;
-        let window = || rates.iter().filter(move |r| r.0 >= from);
-        let n = window().count();
-        let t0 = window().next().map_or(t1, |r| r.0);
-        let covered = rates.len() == RATE_HISTORY || oldest < from;
-        let span_ok = t1 - t0 <= 1.5 * n.saturating_sub(1) as f64 * self.cfg.filter_period_s;
-        if n < RATE_MIN || !covered || !span_ok || t1 <= t0 {
-            return None;
-        }
-        // Normal equations of w = a + b u + c u², u = t − t̄ (f64 sums, per-axis right sides).
-        let t_mean = window().map(|r| r.0).sum::<f64>() / n as f64;
-        let mut m = nalgebra::Matrix3::<f64>::zeros();
-        let mut rhs = nalgebra::Matrix3::<f64>::zeros();
-        for &(t, w) in window() {
-            let u = t - t_mean;
-            let basis = nalgebra::Vector3::new(1.0, u, u * u);
-            m += basis * basis.transpose();
-            let w64 = nalgebra::Vector3::new(w.x.to_f64(), w.y.to_f64(), w.z.to_f64());
-            rhs += basis * w64.transpose();
-        }
-        // Rows of `coef`: a, b, c; columns: axes.
-        let coef = m.try_inverse()? * rhs;
-        let u_end = t_msg - t_mean;
-        Some(Vector3::from_fn(|axis, _| {
-            T::of(mat::get(&coef, 1, axis) + 2.0 * u_end * mat::get(&coef, 2, axis))
-        }))
-    }
-
-    /// The columns' ingredients of the augmented blocks at slave time `t_s`; `here`: the
-    /// Earth model at the master's position.
-    fn signature(
-        &self,
-        t: f64,
-        t_s: f64,
-        slave: &SlaveAt<T>,
-        here: &earth::Local<T>,
-        c_bm_n: &Matrix3<T>,
-        w_eb_bm: &Vector3<T>,
-    ) -> Signature<T> {
-        let c_bs_n = dcm(&slave.q_b_n);
-        let rate = self.buffer.rate_at(t_s).ok();
-        let w_ib_bs = rate.map_or(Vector3::zeros(), |r| r.raw_b - self.gyro_bias);
-        let f_bs = rate.map_or(Vector3::zeros(), |r| r.f_raw_b - self.accel_bias);
-        let w_ie = here.earth_rate_n();
-        let w_en = here.transport_rate_n(&slave.v_n);
-        // What a delay moves is the master. The slave's own gyro also senses the
-        // flexure's rate of the moment, which the filter has not predicted and which is in
-        // the same attitude innovation (errors in variables: a spurious delay of 2 ms on a
-        // clean flexing draw, docs/diagnosis.md "Session 10"); so the attitude column is
-        // the current master message's rate (its noise is not in the attitude
-        // innovation), and the rate column the derivative of a parabola through the
-        // master's previous rates (the current one's noise is in its own innovation; past
-        // noise biases through the flexure states, hence a long window). For a master
-        // that gives no rate (a rate from attitude differences would carry the current
-        // attitude noise), or before the window is covered, the slave's rate. The
-        // velocity column stays the slave's sensed acceleration: the master's velocity
-        // carries its own smooth error, whose white increments bias it the same way.
-        let m_bs = exp_so3(&self.misalignment).transpose();
-        let slope = if self.has_delay() {
-            self.master_rate_slope(t)
-        } else {
-            None
-        };
-        let (w_nb_bs, w_dot_bs) = match slope {
-            Some(w_dot) => (m_bs * (w_eb_bm - c_bm_n.transpose() * w_en), m_bs * w_dot),
-            None => (
-                w_ib_bs - c_bs_n.transpose() * (w_ie + w_en),
-                Vector3::zeros(),
-            ),
-        };
-        // v̇ = C f + g − (2ω_ie + ω_en) × v, from the sensed force (not from differences
-        // of the snapshots, which closed-loop corrections make jump).
-        let v_dot_n =
-            c_bs_n * f_bs + here.gravity_n() - (w_ie * T::of(2.0) + w_en).cross(&slave.v_n);
-        let x = self.kf.state();
-        let block = |b: usize| Vector3::new(vget(&x, b), vget(&x, b + 1), vget(&x, b + 2));
-        Signature {
-            c_bm_n: *c_bm_n,
-            w_eb_bm: *w_eb_bm,
-            lever_v_n: c_bm_n * w_eb_bm.cross(&self.cfg.lever_arm_m),
-            v_dot_n,
-            w_nb_bs,
-            w_dot_bs,
-            w_ib_bs,
-            f_bs,
-            c_bs_n,
-            theta: block(TH) - block(THD) * T::of(self.flexure_lag(t_s)),
-            theta_rate: block(THD),
-            clock_dt: T::of(self.clock_dt(t)),
-        }
-    }
-
-    fn match_master(&mut self, msg: &MasterNav<T>) -> Result<MatchReport<T>, AlignError> {
+        report: &mut MatchReport<T>,
+    ) -> Result<(), AlignError> {
         // The master's state belongs to the slave's time t − τ̂ (τ̂ = 0 without the delay block).
         let _phase = probe::enter(Phase::Matching);
         let t_s = msg.t - self.delay_at(msg.t);
         let slave = self.buffer.at(t_s)?;
-        let c_bm_n = dcm(&msg.q_bm_n);
-        let mut report = MatchReport {
-            t: msg.t,
-            ..MatchReport::default()
-        };
-        let gate = self.cfg.gate_sigma;
-        let jr = right_jacobian(&self.misalignment);
-        let m = self.cfg.matching;
-        // The latitude's trig and radii once for every use at the master's position.
-        let here = earth::Local::at(&msg.pos);
-        let (w_eb, w_eb_var) = self.master_rate_wrt_earth(msg, &here, &c_bm_n);
-        let aug = self.cfg.augmentation;
-        let sig =
-            (!aug.is_empty()).then(|| self.signature(msg.t, t_s, &slave, &here, &c_bm_n, &w_eb));
         // The flexure states belong to the last epoch, `lag` after the matching time:
         // the measurement sees θ(t_s) = θ − lag θ̇ (exact for a flexure linear over the
         // period). Zero without a delay in the layout (matching at the epoch).
         let lag = T::of(self.flexure_lag(t_s));
-        let augment = |rows: &mut model::Rows<T, S>, channel: Channel| {
-            if let Some(sig) = &sig {
-                augment::add_measurement(rows, &aug, channel, sig);
+        let theta_at = |kf: &Kalman<T, S>| {
+            Vector3::from_fn(|k, _| kf.state_at(TH + k) - lag * kf.state_at(THD + k))
+        };
+        let flexure = (
+            theta_at(&self.kf),
+            Vector3::from_fn(|k, _| self.kf.state_at(THD + k)),
+        );
+        let nominal = Nominal {
+            cfg: &self.cfg,
+            buffer: &self.buffer,
+            gyro_bias: self.gyro_bias,
+            accel_bias: self.accel_bias,
+            misalignment: self.misalignment,
+            prev_master: self.prev_master,
+            past_master_rates: &self.past_master_rates,
+            has_delay: self.has_delay(),
+            clock_dt: self.clock_dt(msg.t),
+        };
+        let m = measure(&nominal, msg, t_s, &slave, &flexure);
+        let aug = self.cfg.augmentation;
+        let update = |engine: &mut Self,
+                      c: &Measured<T>,
+                      channel: Channel,
+                      out: &mut Option<[ScalarUpdate<T>; 3]>| {
+            let mut rows: model::Rows<T, S> = [mat::zeros(), mat::zeros(), mat::zeros()];
+            model::put_blocks(&mut rows, &c.blocks);
+            if let Some(sig) = &m.sig {
+                augment::add_measurement(&mut rows, &aug, channel, sig);
             }
             if lag != T::zero() {
                 for row in rows.iter_mut() {
@@ -1362,84 +1263,44 @@ impl<T: Real, const S: usize> Engine<T, S> {
                     }
                 }
             }
+            let gate = engine.cfg.gate_sigma;
+            engine.update3(&rows, &c.z, c.r, gate, out.insert([unused(); 3]));
         };
-
-        if m.velocity {
-            let r0 = self.cfg.lever_arm_m;
-            let z = model::velocity_residual(&slave.v_n, &msg.v_n, &c_bm_n, &w_eb, &r0);
-            let r_bend = self.cfg.bending.matrix(&r0);
-            let mut rows = model::velocity_rows::<T, S>(
-                &c_bm_n,
-                &w_eb,
-                self.cfg.dynamic_lever_arm.then_some(&r_bend),
-            );
-            augment(&mut rows, Channel::Velocity);
-            // The master's velocity noise, plus the rate noise carried by the lever arm:
-            // var(n_ω × r0) averaged over the axes is ⅔ |r0|² σ_ω².
-            let lever = T::of(2.0 / 3.0) * r0.norm_squared() * w_eb_var;
-            let r = self
-                .cfg
-                .measurement_noise
-                .velocity_mps
-                .map(|s| s * s + lever);
-            report.velocity = Some(self.update3(&rows, &z, r, gate));
+        if let Some(c) = &m.velocity {
+            update(self, c, Channel::Velocity, &mut report.velocity);
         }
-        if m.attitude {
-            let z = model::attitude_residual(&self.misalignment, &c_bm_n, &dcm(&slave.q_b_n));
-            // The flexure at the matching time, θ(t_s) = θ − lag θ̇: the linearization point.
-            let kf = &self.kf;
-            let theta = Vector3::from_fn(|k, _| kf.state_at(TH + k) - lag * kf.state_at(THD + k));
-            let mut rows = model::attitude_rows::<T, S>(
-                &inverse_right_jacobian_small(&(jr * theta)),
-                &right_jacobian(&(self.misalignment + theta)),
-            );
-            augment(&mut rows, Channel::Attitude);
-            let r = self.cfg.measurement_noise.attitude_rad.map(|s| s * s);
-            report.attitude = Some(self.update3(&rows, &z, r, gate));
+        if let Some((z, r)) = m.attitude {
+            // Linearized at the flexure at the matching time as the velocity update left
+            // it, θ(t_s) = θ − lag θ̇.
+            let blocks = attitude_blocks(&m.jr, &self.misalignment, &theta_at(&self.kf));
+            let c = Measured { z, blocks, r };
+            update(self, &c, Channel::Attitude, &mut report.attitude);
         }
-        if m.angular_rate {
-            // The master's rate at t_v against the slave's, interpolated at t_v: each
-            // message uses its own IMU intervals and its own master sample (white noise).
-            if let (Some(w_m), Ok(slave_rate)) = (msg.w_ib_bm, self.buffer.rate_at(t_s)) {
-                let w_m_bs = exp_so3(&self.misalignment).transpose() * w_m;
-                // `model::rate_residual` with Exp(μ̂)ᵀ ω_m computed once.
-                let z = (slave_rate.raw_b - self.gyro_bias) - w_m_bs;
-                let mut rows = model::rate_rows::<T, S>(&w_m_bs, &jr);
-                augment(&mut rows, Channel::AngularRate);
-                let noise = &self.cfg.measurement_noise;
-                let arw = self.cfg.process_noise.gyro_arw;
-                let gyro = arw * arw * T::of(slave_rate.noise_gain);
-                let r = noise.rate_radps.map(|s| s * s + gyro);
-                report.angular_rate = Some(self.update3(&rows, &z, r, gate));
-            }
+        if let Some(c) = &m.angular_rate {
+            update(self, c, Channel::AngularRate, &mut report.angular_rate);
         }
         {
             let _phase = probe::enter(Phase::Engine);
             self.feedback(t_s);
-            self.reset_if_stuck(&report);
+            self.reset_if_stuck(report);
         }
         self.last_update_t = msg.t;
-        Ok(report)
+        Ok(())
     }
 
+    /// The three scalar updates of one channel's rows, their reports into `out`.
     fn update3(
         &mut self,
         rows: &model::Rows<T, S>,
         z: &Vector3<T>,
         r: Vector3<T>,
         gate: T,
-    ) -> [ScalarUpdate<T>; 3] {
-        let mut out = [ScalarUpdate {
-            innovation: T::zero(),
-            variance: T::zero(),
-            test_ratio: T::zero(),
-            accepted: false,
-        }; 3];
+        out: &mut [ScalarUpdate<T>; 3],
+    ) {
         let _phase = probe::enter(Phase::Update);
         for (((row, slot), z), r) in rows.iter().zip(out.iter_mut()).zip(z.iter()).zip(r.iter()) {
             *slot = self.kf.update_scalar(row, *z, *r, gate);
         }
-        out
     }
 
     /// Counts, per channel, the messages in a row with a rejected measurement and
@@ -1447,9 +1308,12 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// restarts from the next master message and the covariance from its initial value,
     /// while the bias and misalignment estimates are kept as the new starting point.
     fn reset_if_stuck(&mut self, report: &MatchReport<T>) {
-        let channels = [report.velocity, report.attitude, report.angular_rate];
+        // Borrowed, not copied (three scalar updates a channel: a `memcpy` each on the board).
+        let channels = [&report.velocity, &report.attitude, &report.angular_rate];
         for (streak, channel) in self.gated_streaks.iter_mut().zip(channels) {
-            let gated = channel.is_some_and(|u| u.iter().any(|s| !s.accepted));
+            let gated = channel
+                .as_ref()
+                .is_some_and(|u| u.iter().any(|s| !s.accepted));
             *streak = if gated { streak.saturating_add(1) } else { 0 };
         }
         if self
@@ -1515,5 +1379,272 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 self.kf.reset_states(o..o + 2);
             }
         }
+    }
+}
+
+/// What the matching of a master message reads of the engine besides its filter,
+/// borrowed. The board instantiates the engine at two sizes (`Engine<f32, 21>` and
+/// `Engine<f32, 33>`), and every method of it is one copy per size, also where its code
+/// does not depend on the size: the matching's algebra is therefore in free functions
+/// of this and the filter's few states they need ([`measure`], [`attitude_blocks`]), one
+/// copy per `T` (docs/performance.md, "What issue12-s11 changed").
+struct Nominal<'a, T: Real> {
+    cfg: &'a EngineConfig<T>,
+    buffer: &'a AlignBuffer<T, ALIGN_DEPTH>,
+    gyro_bias: Vector3<T>,
+    accel_bias: Vector3<T>,
+    misalignment: Vector3<T>,
+    prev_master: Option<PrevMaster<T>>,
+    past_master_rates: &'a Deque<(f64, Vector3<T>), RATE_HISTORY>,
+    /// Whether the layout carries the master delay (`Engine::has_delay`).
+    has_delay: bool,
+    /// The message's time since the clock's reference t₀ (s; `Engine::clock_dt`).
+    clock_dt: f64,
+}
+
+/// One three-axis matching measurement before the filter: its residual, its rows'
+/// declared blocks ([`model::Blocks`]) and its noise variance per axis.
+struct Measured<T: Real> {
+    z: Vector3<T>,
+    blocks: model::Blocks<T>,
+    r: Vector3<T>,
+}
+
+/// What [`measure`] finds for one master message: each channel in use (the attitude's
+/// residual and noise only: its rows are linearized at the flexure as the velocity update
+/// leaves it, [`attitude_blocks`]), `J_r(μ̂)`, and the augmented columns' ingredients
+/// when the layout has augmented blocks.
+struct Measurements<T: Real> {
+    velocity: Option<Measured<T>>,
+    attitude: Option<(Vector3<T>, Vector3<T>)>,
+    angular_rate: Option<Measured<T>>,
+    jr: Matrix3<T>,
+    sig: Option<Signature<T>>,
+}
+
+/// The matching of the master message `msg` at slave time `t_s` (`slave`: the slave's
+/// solution there) before the filter: residuals, the declared blocks of the velocity and
+/// rate rows, the noises, the augmented columns' ingredients. `flexure`: the filter's
+/// θ(t_s) = θ − lag θ̇ and θ̇ before any update of this message.
+#[inline(never)]
+fn measure<T: Real>(
+    e: &Nominal<'_, T>,
+    msg: &MasterNav<T>,
+    t_s: f64,
+    slave: &SlaveAt<T>,
+    flexure: &(Vector3<T>, Vector3<T>),
+) -> Measurements<T> {
+    let c_bm_n = dcm(&msg.q_bm_n);
+    let jr = right_jacobian(&e.misalignment);
+    let m = e.cfg.matching;
+    let noise = &e.cfg.measurement_noise;
+    // The latitude's trig and radii once for every use at the master's position.
+    let here = earth::Local::at(&msg.pos);
+    let (w_eb, w_eb_var) =
+        master_rate_wrt_earth(msg, e.prev_master.as_ref(), e.cfg, &here, &c_bm_n);
+    let rate = e.buffer.rate_at(t_s).ok();
+    let sig = (!e.cfg.augmentation.is_empty())
+        .then(|| signature(e, msg, rate.as_ref(), slave, &here, &c_bm_n, &w_eb, flexure));
+    let velocity = m.velocity.then(|| {
+        let r0 = e.cfg.lever_arm_m;
+        let z = model::velocity_residual(&slave.v_n, &msg.v_n, &c_bm_n, &w_eb, &r0);
+        let r_bend = e.cfg.bending.matrix(&r0);
+        let blocks =
+            model::velocity_blocks(&c_bm_n, &w_eb, e.cfg.dynamic_lever_arm.then_some(&r_bend));
+        // The master's velocity noise, plus the rate noise carried by the lever arm:
+        // var(n_ω × r0) averaged over the axes is ⅔ |r0|² σ_ω².
+        let lever = T::of(2.0 / 3.0) * r0.norm_squared() * w_eb_var;
+        let r = noise.velocity_mps.map(|s| s * s + lever);
+        Measured { z, blocks, r }
+    });
+    let attitude = m.attitude.then(|| {
+        let z = model::attitude_residual(&e.misalignment, &c_bm_n, &dcm(&slave.q_b_n));
+        (z, noise.attitude_rad.map(|s| s * s))
+    });
+    // The master's rate at t_v against the slave's, interpolated at t_v: each message
+    // uses its own IMU intervals and its own master sample (white noise).
+    let angular_rate = match (m.angular_rate, msg.w_ib_bm, rate) {
+        (true, Some(w_m), Some(slave_rate)) => {
+            let w_m_bs = exp_so3(&e.misalignment).transpose() * w_m;
+            // `model::rate_residual` with Exp(μ̂)ᵀ ω_m computed once.
+            let z = (slave_rate.raw_b - e.gyro_bias) - w_m_bs;
+            let arw = e.cfg.process_noise.gyro_arw;
+            let gyro = arw * arw * T::of(slave_rate.noise_gain);
+            let r = noise.rate_radps.map(|s| s * s + gyro);
+            Some(Measured {
+                z,
+                blocks: model::rate_blocks(&w_m_bs, &jr),
+                r,
+            })
+        }
+        _ => None,
+    };
+    Measurements {
+        velocity,
+        attitude,
+        angular_rate,
+        jr,
+        sig,
+    }
+}
+
+/// The attitude rows' declared blocks ([`model::attitude_blocks`]) linearized at the
+/// flexure `theta` = θ(t_s): `J_r⁻¹(J_r(μ̂) θ)` and `J_r(μ̂ + θ)`; `jr`: `J_r(μ̂)`.
+#[inline(never)]
+fn attitude_blocks<T: Real>(
+    jr: &Matrix3<T>,
+    misalignment: &Vector3<T>,
+    theta: &Vector3<T>,
+) -> model::Blocks<T> {
+    model::attitude_blocks(
+        &inverse_right_jacobian_small(&(jr * theta)),
+        &right_jacobian(&(misalignment + theta)),
+    )
+}
+
+/// The master body's rate relative to the Earth (rad/s, master body), for the
+/// lever-arm velocity, with the variance of its noise, the mean over the axes
+/// (rad²/s²): from the master's rate when given (`lever_arm_rate_radps`), else from the
+/// change of its attitude since the previous message `prev` (√2 σ_att / Δt), else zero
+/// with no noise.
+/// `here`: the Earth model at the master's position.
+fn master_rate_wrt_earth<T: Real>(
+    msg: &MasterNav<T>,
+    prev: Option<&PrevMaster<T>>,
+    cfg: &EngineConfig<T>,
+    here: &earth::Local<T>,
+    c_bm_n: &Matrix3<T>,
+) -> (Vector3<T>, T) {
+    let noise = &cfg.measurement_noise;
+    let w_ie_b = c_bm_n.transpose() * here.earth_rate_n();
+    if let Some(w) = msg.w_ib_bm {
+        let sigma = noise.lever_arm_rate_radps;
+        return (w - w_ie_b, sigma * sigma);
+    }
+    match prev {
+        Some(p) if msg.t > p.t && msg.t - p.t <= 2.5 * cfg.filter_period_s.max(1e-3) => {
+            let dt = T::of(msg.t - p.t);
+            let w_nb = quat_log(&(p.q_bm_n.inverse() * msg.q_bm_n)) / dt;
+            let w_en = here.transport_rate_n(&msg.v_n);
+            let sigma = axes_rms(&noise.attitude_rad) / dt;
+            (w_nb + c_bm_n.transpose() * w_en, T::of(2.0) * sigma * sigma)
+        }
+        _ => (Vector3::zeros(), T::zero()),
+    }
+}
+
+/// The master's angular acceleration at `t_msg`, the stamp of the message being
+/// matched (rad/s², master body): the derivative there of a least-squares parabola
+/// through the kept rates of the last `RATE_WINDOW_S` (a straight line's slope would
+/// belong to the window's middle). The window is a time, not a count: at 10 Hz the
+/// 64 rates spanned 6.4 s, longer than a ship's roll period, and the parabola's
+/// slope was no angular acceleration (a constant 17 ms delay, blind draw 102 with a
+/// 10 Hz master: 13.75 ± 0.04 ms with the rate channel, 17.00 ± 0.07 without it).
+/// `None` until the window is covered by at least `RATE_MIN` rates spanning no gap
+/// (and for a master that gives no rate). `period_s`: the filter period.
+fn master_rate_slope<T: Real>(
+    rates: &Deque<(f64, Vector3<T>), RATE_HISTORY>,
+    period_s: f64,
+    t_msg: f64,
+) -> Option<Vector3<T>> {
+    let (&(oldest, _), &(t1, _)) = (rates.front()?, rates.back()?);
+    let from = t1 - RATE_WINDOW_S;
+    let window = || rates.iter().filter(move |r| r.0 >= from);
+    let n = window().count();
+    let t0 = window().next().map_or(t1, |r| r.0);
+    let covered = rates.len() == RATE_HISTORY || oldest < from;
+    let span_ok = t1 - t0 <= 1.5 * n.saturating_sub(1) as f64 * period_s;
+    if n < RATE_MIN || !covered || !span_ok || t1 <= t0 {
+        return None;
+    }
+    // Normal equations of w = a + b u + c u², u = t − t̄ (f64 sums, per-axis right sides).
+    let t_mean = window().map(|r| r.0).sum::<f64>() / n as f64;
+    let mut m = nalgebra::Matrix3::<f64>::zeros();
+    let mut rhs = nalgebra::Matrix3::<f64>::zeros();
+    for &(t, w) in window() {
+        let u = t - t_mean;
+        let basis = nalgebra::Vector3::new(1.0, u, u * u);
+        m += basis * basis.transpose();
+        let w64 = nalgebra::Vector3::new(w.x.to_f64(), w.y.to_f64(), w.z.to_f64());
+        rhs += basis * w64.transpose();
+    }
+    // Rows of `coef`: a, b, c; columns: axes.
+    let coef = m.try_inverse()? * rhs;
+    let u_end = t_msg - t_mean;
+    Some(Vector3::from_fn(|axis, _| {
+        T::of(mat::get(&coef, 1, axis) + 2.0 * u_end * mat::get(&coef, 2, axis))
+    }))
+}
+
+/// The columns' ingredients of the augmented blocks for the message `msg` matched at
+/// slave time `t_s`; `rate`: the slave's rate there, `here`: the Earth model at the
+/// master's position, `flexure`: θ(t_s) and θ̇ (see [`measure`]).
+#[allow(clippy::too_many_arguments)]
+fn signature<T: Real>(
+    e: &Nominal<'_, T>,
+    msg: &MasterNav<T>,
+    rate: Option<&RateAt<T>>,
+    slave: &SlaveAt<T>,
+    here: &earth::Local<T>,
+    c_bm_n: &Matrix3<T>,
+    w_eb_bm: &Vector3<T>,
+    flexure: &(Vector3<T>, Vector3<T>),
+) -> Signature<T> {
+    let c_bs_n = dcm(&slave.q_b_n);
+    let w_ib_bs = rate.map_or(Vector3::zeros(), |r| r.raw_b - e.gyro_bias);
+    let f_bs = rate.map_or(Vector3::zeros(), |r| r.f_raw_b - e.accel_bias);
+    let w_ie = here.earth_rate_n();
+    let w_en = here.transport_rate_n(&slave.v_n);
+    // What a delay moves is the master. The slave's own gyro also senses the
+    // flexure's rate of the moment, which the filter has not predicted and which is in
+    // the same attitude innovation (errors in variables: a spurious delay of 2 ms on a
+    // clean flexing draw, docs/diagnosis.md "Session 10"); so the attitude column is
+    // the current master message's rate (its noise is not in the attitude
+    // innovation), and the rate column the derivative of a parabola through the
+    // master's previous rates (the current one's noise is in its own innovation; past
+    // noise biases through the flexure states, hence a long window). For a master
+    // that gives no rate (a rate from attitude differences would carry the current
+    // attitude noise), or before the window is covered, the slave's rate. The
+    // velocity column stays the slave's sensed acceleration: the master's velocity
+    // carries its own smooth error, whose white increments bias it the same way.
+    let m_bs = exp_so3(&e.misalignment).transpose();
+    let slope = if e.has_delay {
+        master_rate_slope(e.past_master_rates, e.cfg.filter_period_s, msg.t)
+    } else {
+        None
+    };
+    let (w_nb_bs, w_dot_bs) = match slope {
+        Some(w_dot) => (m_bs * (w_eb_bm - c_bm_n.transpose() * w_en), m_bs * w_dot),
+        None => (
+            w_ib_bs - c_bs_n.transpose() * (w_ie + w_en),
+            Vector3::zeros(),
+        ),
+    };
+    // v̇ = C f + g − (2ω_ie + ω_en) × v, from the sensed force (not from differences
+    // of the snapshots, which closed-loop corrections make jump).
+    let v_dot_n = c_bs_n * f_bs + here.gravity_n() - (w_ie * T::of(2.0) + w_en).cross(&slave.v_n);
+    Signature {
+        c_bm_n: *c_bm_n,
+        w_eb_bm: *w_eb_bm,
+        lever_v_n: c_bm_n * w_eb_bm.cross(&e.cfg.lever_arm_m),
+        v_dot_n,
+        w_nb_bs,
+        w_dot_bs,
+        w_ib_bs,
+        f_bs,
+        c_bs_n,
+        theta: flexure.0,
+        theta_rate: flexure.1,
+        clock_dt: T::of(e.clock_dt),
+    }
+}
+
+/// A scalar update's report before the update writes it.
+fn unused<T: Real>() -> ScalarUpdate<T> {
+    ScalarUpdate {
+        innovation: T::zero(),
+        variance: T::zero(),
+        test_ratio: T::zero(),
+        accepted: false,
     }
 }

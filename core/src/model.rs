@@ -81,20 +81,25 @@ pub struct ProcessNoise<T> {
     pub misalignment_rw: T,
 }
 
-fn put<T: Real, const R: usize, const C: usize>(
-    m: &mut SMatrix<T, R, C>,
-    r: usize,
-    c: usize,
-    b: &Matrix3<T>,
-) {
-    m.fixed_view_mut::<3, 3>(r, c).copy_from(b);
+/// Writes the 3 × 3 block `b` at row `r`, column `c` of `f`, `DYN` rows stored
+/// column-major.
+fn put<T: Real>(f: &mut [T], r: usize, c: usize, b: &Matrix3<T>) {
+    for (k, col) in b.column_iter().enumerate() {
+        let at = (c + k) * DYN + r;
+        if let Some(dst) = f.get_mut(at..at + 3) {
+            dst.copy_from_slice(col.as_slice());
+        }
+    }
 }
 
 /// Continuous-time error dynamics of the navigation and sensor states (the 15 before the
-/// flexure block), written into `f`'s rows δv and ψ: the only rows with dynamics (those of
-/// the sensors and the misalignment are zero). Elements it does not set are left as they
-/// are (zero in a fresh matrix); no 15×15 temporary.
-fn nav_dynamics_rows<T: Real, const C: usize>(m: &IntervalMeans<T>, f: &mut SMatrix<T, DYN, C>) {
+/// flexure block), written into the rows δv and ψ of `f` (`DYN` rows, column-major): the
+/// only rows with dynamics (those of the sensors and the misalignment are zero). Elements
+/// it does not set are left as they are (zero in a fresh matrix); no 15×15 temporary.
+/// On slices, not on `F`'s matrix of `S` columns: one copy for every state dimension
+/// (the board's two, "What issue12-s11 changed" in `docs/performance.md`).
+#[inline(never)]
+fn nav_dynamics_rows<T: Real>(m: &IntervalMeans<T>, f: &mut [T]) {
     let here = earth::Local::at(&m.pos);
     let w_ie = here.earth_rate_n();
     let w_en = here.transport_rate_n(&m.v_n);
@@ -131,7 +136,7 @@ pub fn dynamics<T: Real, const S: usize>(
     aug: &Augmentation<T>,
 ) -> SMatrix<T, DYN, S> {
     let mut f = mat::zeros::<T, DYN, S>();
-    nav_dynamics_rows(m, &mut f);
+    nav_dynamics_rows(m, f.as_mut_slice());
     augment::add_dynamics(&mut f, aug, (V, PSI), &m.f_b, &m.w_ib_b, &m.c_b_n);
     f
 }
@@ -192,54 +197,9 @@ pub fn transition_into<T: Real, const S: usize>(
         }
     }
     let cols = cols.get(..n).unwrap_or(&[]);
-    // (F t)² and (F t)³ on those columns: only F's first `DYN` rows are not zero, so
-    // column j of a product is Σ_k (column k of the left factor's first DYN columns) ·
-    // F t(k, j), k ascending (the dense product's order). Columns as arrays: the board's
-    // size-optimized image would otherwise bounds-check every term.
-    let column = |m: &SMatrix<T, DYN, S>, j: usize| -> [T; DYN] {
-        let mut c = [T::zero(); DYN];
-        if let Some(src) = m.as_slice().get(j * DYN..j * DYN + DYN) {
-            c.copy_from_slice(src);
-        }
-        c
-    };
-    let mut ft_cols = [[T::zero(); DYN]; DYN];
-    for (k, c) in ft_cols.iter_mut().enumerate() {
-        *c = column(&ft, k);
-    }
-    let times_ft = |left: &[[T; DYN]; DYN], j: usize| -> [T; DYN] {
-        let mut acc = [T::zero(); DYN];
-        // Written out over the six rows: the size-optimized image does not unroll, and the
-        // loop cost three times its multiply-adds (the same arithmetic, element by element).
-        for (lk, &fkj) in left.iter().zip(column(&ft, j).iter()) {
-            let ([a0, a1, a2, a3, a4, a5], [l0, l1, l2, l3, l4, l5]) = (&mut acc, lk);
-            *a0 += *l0 * fkj;
-            *a1 += *l1 * fkj;
-            *a2 += *l2 * fkj;
-            *a3 += *l3 * fkj;
-            *a4 += *l4 * fkj;
-            *a5 += *l5 * fkj;
-        }
-        acc
-    };
     let mut f2 = mat::zeros::<T, DYN, S>();
-    for &j in cols {
-        let c = times_ft(&ft_cols, j);
-        if let Some(dst) = f2.as_mut_slice().get_mut(j * DYN..j * DYN + DYN) {
-            dst.copy_from_slice(&c);
-        }
-    }
-    let mut f2_cols = [[T::zero(); DYN]; DYN];
-    for (k, c) in f2_cols.iter_mut().enumerate() {
-        *c = column(&f2, k);
-    }
     let mut f3 = mat::zeros::<T, DYN, S>();
-    for &j in cols {
-        let c = times_ft(&f2_cols, j);
-        if let Some(dst) = f3.as_mut_slice().get_mut(j * DYN..j * DYN + DYN) {
-            dst.copy_from_slice(&c);
-        }
-    }
+    powers(ft.as_slice(), f2.as_mut_slice(), f3.as_mut_slice(), cols);
     let (half, sixth) = (T::of(0.5), T::of(1.0 / 6.0));
     for i in 0..DYN {
         phi.set_row_at(i, cols, |j| {
@@ -256,6 +216,60 @@ pub fn transition_into<T: Real, const S: usize>(
                 let col = if j == th { 0 } else { 1 };
                 mat::get(&a, row, col)
             });
+        }
+    }
+}
+
+/// `(F t)²` into `f2` and `(F t)³` into `f3` on the columns `cols` of `F t` (`ft`; each
+/// `DYN` rows, column-major; `cols` ascending, the first `DYN` among them). Only F's first
+/// `DYN` rows are not zero, so column j of a product is Σ_k (column k of the left
+/// factor's first `DYN` columns) · F t(k, j), k ascending (the dense product's order).
+/// On slices, not on matrices of `S` columns: one copy for every state dimension.
+#[inline(never)]
+fn powers<T: Real>(ft: &[T], f2: &mut [T], f3: &mut [T], cols: &[usize]) {
+    // Columns as arrays: the board's size-optimized image would otherwise bounds-check
+    // every term.
+    let column = |m: &[T], j: usize| -> [T; DYN] {
+        let mut c = [T::zero(); DYN];
+        if let Some(src) = m.get(j * DYN..j * DYN + DYN) {
+            c.copy_from_slice(src);
+        }
+        c
+    };
+    let first = |m: &[T]| -> [[T; DYN]; DYN] {
+        let mut cs = [[T::zero(); DYN]; DYN];
+        for (k, c) in cs.iter_mut().enumerate() {
+            *c = column(m, k);
+        }
+        cs
+    };
+    let times_ft = |left: &[[T; DYN]; DYN], j: usize| -> [T; DYN] {
+        let mut acc = [T::zero(); DYN];
+        // Written out over the six rows: the size-optimized image does not unroll, and the
+        // loop cost three times its multiply-adds (the same arithmetic, element by element).
+        for (lk, &fkj) in left.iter().zip(column(ft, j).iter()) {
+            let ([a0, a1, a2, a3, a4, a5], [l0, l1, l2, l3, l4, l5]) = (&mut acc, lk);
+            *a0 += *l0 * fkj;
+            *a1 += *l1 * fkj;
+            *a2 += *l2 * fkj;
+            *a3 += *l3 * fkj;
+            *a4 += *l4 * fkj;
+            *a5 += *l5 * fkj;
+        }
+        acc
+    };
+    let ft_cols = first(ft);
+    for &j in cols {
+        let c = times_ft(&ft_cols, j);
+        if let Some(dst) = f2.get_mut(j * DYN..j * DYN + DYN) {
+            dst.copy_from_slice(&c);
+        }
+    }
+    let f2_cols = first(f2);
+    for &j in cols {
+        let c = times_ft(&f2_cols, j);
+        if let Some(dst) = f3.get_mut(j * DYN..j * DYN + DYN) {
+            dst.copy_from_slice(&c);
         }
     }
 }
@@ -301,8 +315,29 @@ pub fn process_noise<T: Real, const S: usize>(
 /// Measurement rows of one three-axis matching measurement.
 pub type Rows<T, const S: usize = N> = [SVector<T, S>; 3];
 
-fn rows_from_blocks<T: Real, const S: usize>(blocks: &[(usize, Matrix3<T>)]) -> Rows<T, S> {
-    let mut rows = [mat::zeros::<T, S, 1>(); 3];
+/// The declared states' non-zero 3 × 3 blocks of one three-axis matching measurement's
+/// rows: each block's first state and the block (row = axis), at most four. Built apart
+/// from the rows ([`rows_from_blocks`]) because they do not depend on the state's
+/// dimension: the board, which instantiates the engine at two dimensions, then holds one
+/// copy of their algebra (`docs/performance.md`, "What issue12-s11 changed").
+pub type Blocks<T> = heapless::Vec<(usize, Matrix3<T>), 4>;
+
+fn blocks<T: Real>(list: &[(usize, Matrix3<T>)]) -> Blocks<T> {
+    // Every caller lists at most four: never the empty fallback.
+    Blocks::from_slice(list).unwrap_or_default()
+}
+
+/// The rows of dimension `S` holding `blocks` (zero elsewhere).
+pub fn rows_from_blocks<T: Real, const S: usize>(blocks: &Blocks<T>) -> Rows<T, S> {
+    let mut rows = [mat::zeros(), mat::zeros(), mat::zeros()];
+    put_blocks(&mut rows, blocks);
+    rows
+}
+
+/// Writes `blocks` into `rows` (the other elements left as they are): the engine's rows
+/// built in place (returned by [`rows_from_blocks`], they were copied once more on the
+/// board, 0.7k instructions per master update).
+pub fn put_blocks<T: Real, const S: usize>(rows: &mut Rows<T, S>, blocks: &Blocks<T>) {
     for (axis, row) in rows.iter_mut().enumerate() {
         for (offset, b) in blocks {
             for k in 0..3 {
@@ -312,7 +347,6 @@ fn rows_from_blocks<T: Real, const S: usize>(blocks: &[(usize, Matrix3<T>)]) -> 
             }
         }
     }
-    rows
 }
 
 /// Velocity matching `z_v = v̂_s − v_m − C_bm^n (ω_eb^bm × r0)` (m/s, ENU).
@@ -325,13 +359,22 @@ pub fn velocity_rows<T: Real, const S: usize>(
     w_eb_bm: &Vector3<T>,
     r_flex: Option<&Matrix3<T>>,
 ) -> Rows<T, S> {
+    rows_from_blocks(&velocity_blocks(c_bm_n, w_eb_bm, r_flex))
+}
+
+/// [`velocity_rows`]' blocks.
+pub fn velocity_blocks<T: Real>(
+    c_bm_n: &Matrix3<T>,
+    w_eb_bm: &Vector3<T>,
+    r_flex: Option<&Matrix3<T>>,
+) -> Blocks<T> {
     match r_flex {
-        Some(r) => rows_from_blocks(&[
+        Some(r) => blocks(&[
             (V, Matrix3::identity()),
             (TH, c_bm_n * skew(w_eb_bm) * r),
             (THD, c_bm_n * r),
         ]),
-        None => rows_from_blocks(&[(V, Matrix3::identity())]),
+        None => blocks(&[(V, Matrix3::identity())]),
     }
 }
 
@@ -354,8 +397,13 @@ pub fn attitude_rows<T: Real, const S: usize>(
     jr_inv_a: &Matrix3<T>,
     jr_mu_theta: &Matrix3<T>,
 ) -> Rows<T, S> {
+    rows_from_blocks(&attitude_blocks(jr_inv_a, jr_mu_theta))
+}
+
+/// [`attitude_rows`]' blocks.
+pub fn attitude_blocks<T: Real>(jr_inv_a: &Matrix3<T>, jr_mu_theta: &Matrix3<T>) -> Blocks<T> {
     let j = jr_inv_a * jr_mu_theta;
-    rows_from_blocks(&[(PSI, *jr_inv_a), (MU, j), (TH, j)])
+    blocks(&[(PSI, *jr_inv_a), (MU, j), (TH, j)])
 }
 
 /// Angular-rate matching `z_ω = ω_s − b̂_g − Exp(μ̂)ᵀ ω_m` (rad/s, slave body frame),
@@ -363,8 +411,13 @@ pub fn attitude_rows<T: Real, const S: usize>(
 /// its increments). For a flexure linear over each filter period the rate there is
 /// the period's θ̇. `w_m_bs`: `Exp(μ̂)ᵀ ω_m`.
 pub fn rate_rows<T: Real, const S: usize>(w_m_bs: &Vector3<T>, jr_mu: &Matrix3<T>) -> Rows<T, S> {
+    rows_from_blocks(&rate_blocks(w_m_bs, jr_mu))
+}
+
+/// [`rate_rows`]' blocks.
+pub fn rate_blocks<T: Real>(w_m_bs: &Vector3<T>, jr_mu: &Matrix3<T>) -> Blocks<T> {
     let wj = skew(w_m_bs) * jr_mu;
-    rows_from_blocks(&[(MU, wj), (BG, Matrix3::identity()), (TH, wj), (THD, *jr_mu)])
+    blocks(&[(MU, wj), (BG, Matrix3::identity()), (TH, wj), (THD, *jr_mu)])
 }
 
 /// The matrix R of the bent lever arm `r = r0 + R θ` (m/rad, master body frame).
