@@ -29,6 +29,7 @@ use flexcal_core::link::{
     ConfigMsg, EffectsMsg, EndMsg, EstimatesMsg, ImuSampleMsg, MasterNavMsg, Message, Receiver,
     StatusMsg, MAX_FRAME_LEN,
 };
+use flexcal_core::watch::{Watch, WatchReport};
 use nalgebra::SMatrix;
 use std::io::{Read, Write};
 use std::net::TcpListener;
@@ -128,6 +129,71 @@ pub fn stream_messages(
     }
     out.push(Message::End(EndMsg { t: last_t }));
     out
+}
+
+/// The watcher's report after one master update of the host's own run.
+#[derive(Clone, Copy, Debug)]
+pub struct WatchPoint {
+    /// Master updates so far (the board numbers its Status frames by them).
+    pub updates: u32,
+    /// The update's time of validity (s).
+    pub t: f64,
+    /// What the watcher says then.
+    pub report: WatchReport,
+}
+
+/// The board's watcher run on the host: the stream's messages (as [`stream_messages`]
+/// builds them) through `Engine<f32>` of the board's size and [`Watch<f32>`], fed as the
+/// firmware's application feeds them (each master message to the watcher before the
+/// engine, each update's report after). One point per master update.
+pub fn host_watch(msgs: &[Message]) -> Result<Vec<WatchPoint>, String> {
+    let Some(Message::Config(c)) = msgs.first() else {
+        return Err("the stream does not start with a Config".into());
+    };
+    let cfg = c.to_engine::<f32>();
+    if cfg.augmentation.is_empty() {
+        watch_run::<{ flexcal_core::model::N }>(cfg, msgs)
+    } else {
+        watch_run::<33>(cfg, msgs)
+    }
+}
+
+fn watch_run<const S: usize>(
+    cfg: flexcal_core::engine::EngineConfig<f32>,
+    msgs: &[Message],
+) -> Result<Vec<WatchPoint>, String> {
+    use flexcal_core::engine::{Engine, StepReports};
+    let mut watch = Watch::<f32>::new(&cfg);
+    let mut engine = Engine::<f32, S>::new(cfg).map_err(|e| format!("engine: {e:?}"))?;
+    let mut reports = StepReports::new();
+    let mut out = Vec::new();
+    let mut updates = 0u32;
+    for m in msgs {
+        match m {
+            Message::ImuSample(s) => {
+                // Refusals are the engine's counters, as on the board.
+                let _ = engine.push_imu(s.to_engine(), &mut reports);
+            }
+            Message::MasterNav(n) => {
+                let nav = n.to_engine();
+                watch.observe_master(&nav);
+                let _ = engine.push_master(nav, &mut reports);
+            }
+            Message::End(_) => engine.flush(&mut reports),
+            _ => continue,
+        }
+        for r in &reports {
+            watch.observe(r);
+            updates += 1;
+            out.push(WatchPoint {
+                updates,
+                t: r.t,
+                report: watch.report(),
+            });
+        }
+        reports.clear();
+    }
+    Ok(out)
 }
 
 /// Each message as one frame on the wire (sequence numbers per stream from 0).

@@ -1,0 +1,109 @@
+//! The board's watcher (`core/src/watch.rs`) run on the host over simulated recordings,
+//! as the firmware runs it (`flexcal_sim::cmd::replay::host_watch`): a delay that appears
+//! halfway is flagged, naming the delay, within 60 s of its onset; clean recordings raise
+//! no flag. The QEMU twin is `tests/tests/qemu_replay.rs`.
+
+use flexcal_core::augment::Effect;
+use flexcal_core::watch::Verdict;
+use flexcal_sim::calib::config::CalibConfig;
+use flexcal_sim::cmd::replay::{host_watch, stream_messages, WatchPoint};
+use flexcal_sim::sim::{simulate, Scenario};
+
+/// The host watcher over scenario `name` (duration `seconds`, seed `seed`), with the
+/// configuration the scenario declares.
+fn watch(name: &str, seconds: f64, seed: u64, edit: impl FnOnce(&mut Scenario)) -> Vec<WatchPoint> {
+    let file = format!("{}/../scenarios/{name}.toml", env!("CARGO_MANIFEST_DIR"));
+    let mut sc = Scenario::load(name)
+        .or_else(|_| Scenario::load(&file))
+        .expect("scenario");
+    sc.duration_s = seconds;
+    edit(&mut sc);
+    sc.validate().expect("valid scenario");
+    let rec = simulate(&sc, seed).recording;
+    let cfg = CalibConfig::declared_for(&sc, 1.0 / sc.master.rate_hz);
+    host_watch(&stream_messages(&rec, &cfg, 1, 0)).expect("host watch")
+}
+
+/// Prints the figures at the end of every window, for the record.
+fn show(label: &str, points: &[WatchPoint]) {
+    let mut last_windows = u16::MAX;
+    for p in points {
+        let r = &p.report;
+        if r.windows != last_windows {
+            last_windows = r.windows;
+            eprintln!(
+                "{label} t {:7.2} win {:3} {:?} delay {:+.2} ± {:.2} ms lm {:9.1} t² {:7.1} nis {:?} white {:?}",
+                p.t,
+                r.windows,
+                r.verdict,
+                r.delay.estimate * 1e3,
+                r.delay.sigma * 1e3,
+                r.delay.lm,
+                r.delay.t2,
+                r.nis.map(|x| (x * 100.0).round() / 100.0),
+                r.whiteness.map(|x| (x * 100.0).round() / 100.0),
+            );
+        }
+    }
+}
+
+/// The first time the watcher names the delay.
+fn first_delay_flag(points: &[WatchPoint]) -> Option<f64> {
+    points
+        .iter()
+        .find(|p| {
+            p.report.verdict
+                == Verdict::ModelIncomplete {
+                    most_likely: Effect::TimeDelay,
+                }
+        })
+        .map(|p| p.t)
+}
+
+#[test]
+fn a_delay_that_appears_halfway_is_named_within_60_s() {
+    let points = watch("moored-delay-onset", 240.0, 7, |_| {});
+    show("onset", &points);
+    let onset = 120.0;
+    let flag = first_delay_flag(&points).expect("the delay is never named");
+    assert!(
+        flag > onset && flag - onset <= 60.0,
+        "named at {flag} s, onset {onset} s"
+    );
+}
+
+#[test]
+fn clean_moored_raises_no_flag() {
+    for seed in [7, 8, 9] {
+        let points = watch("moored", 240.0, seed, |_| {});
+        show(&format!("clean {seed}"), &points);
+        let flagged: Vec<_> = points
+            .iter()
+            .filter(|p| matches!(p.report.verdict, Verdict::ModelIncomplete { .. }))
+            .collect();
+        assert!(flagged.is_empty(), "seed {seed}: {:?}", flagged.first());
+    }
+}
+
+/// The time from onset to flag over seeds and onsets at every phase of the 15 s
+/// windows (the windows start 60 s after the first update): each within 60 s.
+#[test]
+fn onset_latency_over_seeds_and_window_phases() {
+    let mut worst: f64 = 0.0;
+    for seed in 1..=5 {
+        for onset in [120.0, 124.0, 128.0, 132.0] {
+            let points = watch("moored-delay-onset", 240.0, seed, |sc| {
+                sc.undeclared.master_delay_from_s = Some(onset);
+            });
+            let flag = first_delay_flag(&points);
+            eprintln!("seed {seed} onset {onset}: flagged at {flag:?}");
+            let late = flag.map_or(f64::INFINITY, |f| f - onset);
+            assert!(
+                late > 0.0 && late <= 60.0,
+                "seed {seed} onset {onset}: {flag:?}"
+            );
+            worst = worst.max(late);
+        }
+    }
+    eprintln!("worst latency {worst:.2} s");
+}
