@@ -75,7 +75,7 @@ use crate::earth;
 use crate::engine::{EngineConfig, MasterNav, MatchReport};
 use crate::kalman::ScalarUpdate;
 use crate::real::Real;
-use crate::rotation::{dcm, exp_so3};
+use crate::rotation::{dcm, quat_exp};
 use nalgebra::{Matrix3, Vector3};
 
 /// Channel axes watched: velocity E, N, U (m/s), attitude x, y, z (rad, slave body), rate
@@ -180,6 +180,26 @@ struct AxisSums<T: Real> {
     prev: Option<T>,
 }
 
+impl<T: Real> AxisSums<T> {
+    /// Takes one scalar update with its candidate column `c`, the sums decayed by
+    /// `decay`; returns its terms of the score and the information, `c ν/s` and `c²/s`.
+    /// Not inlined: one copy for the nine axes (flash).
+    #[inline(never)]
+    fn push(&mut self, u: &ScalarUpdate<T>, c: T, decay: T) -> (T, T) {
+        if !(u.variance > T::zero() && u.innovation.is_finite()) {
+            return (T::zero(), T::zero());
+        }
+        let w = u.innovation / u.variance.sqrt_fast();
+        self.sq = self.sq * decay + w * w;
+        self.weight = self.weight * decay + T::one();
+        if let Some(p) = self.prev {
+            self.lag = self.lag * decay + w * p;
+        }
+        self.prev = Some(w);
+        (c * u.innovation / u.variance, c * c / u.variance)
+    }
+}
+
 /// The streaming monitor (see the module documentation).
 #[derive(Clone, Debug)]
 pub struct Watch<T: Real> {
@@ -225,7 +245,7 @@ impl<T: Real> Watch<T> {
     /// the lever arm `lever_arm_m` (master body, m).
     pub fn with_geometry(mounting_rad: &Vector3<T>, lever_arm_m: &Vector3<T>) -> Self {
         Self {
-            bm_to_bs: exp_so3(mounting_rad).transpose(),
+            bm_to_bs: dcm(&quat_exp(mounting_rad)).transpose(),
             lever_arm_m: *lever_arm_m,
             ring: [Columns::default(); RING],
             next: 0,
@@ -254,7 +274,10 @@ impl<T: Real> Watch<T> {
         let Some(w_ib_bm) = m.w_ib_bm else {
             return;
         };
-        let w_ie_n = earth::Local::at(&m.pos).earth_rate_n();
+        // ω_ie^n = Ω [0, cos L, sin L] (ENU), with the engine's f32 trigonometry.
+        let (sin_lat, cos_lat) = m.pos.lat_rad.sin_cos_fast();
+        let omega = T::of(earth::OMEGA_IE);
+        let w_ie_n = Vector3::new(T::zero(), omega * cos_lat, omega * sin_lat);
         let c_bm_n = dcm(&m.q_bm_n);
         let w_eb_bm = w_ib_bm - c_bm_n.transpose() * w_ie_n;
         let w_dot_bm = match self.rates {
@@ -279,6 +302,7 @@ impl<T: Real> Watch<T> {
     }
 
     /// Takes one master update's report.
+    #[inline(never)]
     pub fn observe(&mut self, r: &MatchReport<T>) {
         let first = *self.first_t.get_or_insert(r.t);
         if first == r.t {
@@ -289,40 +313,19 @@ impl<T: Real> Watch<T> {
         self.last_t = r.t;
         let decay = T::of((1.0 - dt / NIS_TIME_CONSTANT_S).max(0.0));
         let cols = self.ring.iter().find(|c| c.t == r.t).copied();
-        let none = [None; 3];
-        let as_opt = |c: &Option<[ScalarUpdate<T>; 3]>| c.map_or(none, |u| u.map(Some));
-        let updates = [
-            as_opt(&r.velocity),
-            as_opt(&r.attitude),
-            as_opt(&r.angular_rate),
-        ];
         let zero = Vector3::zeros();
-        let columns = [
-            cols.map_or(zero, |c| c.velocity),
-            cols.map_or(zero, |c| c.attitude),
-            cols.map_or(zero, |c| c.rate),
+        let channels = [
+            (&r.velocity, cols.map_or(zero, |c| c.velocity)),
+            (&r.attitude, cols.map_or(zero, |c| c.attitude)),
+            (&r.angular_rate, cols.map_or(zero, |c| c.rate)),
         ];
-        let mut score = T::zero();
-        let mut info = T::zero();
-        for ((channel, col), sums) in updates
-            .iter()
-            .zip(columns.iter())
-            .zip(self.axes.chunks_exact_mut(3))
-        {
-            for ((u, c), a) in channel.iter().zip(col.iter()).zip(sums.iter_mut()) {
-                let Some(u) = u else { continue };
-                if !(u.variance > T::zero() && u.innovation.is_finite()) {
-                    continue;
-                }
-                let w = u.innovation / u.variance.sqrt_fast();
-                a.sq = a.sq * decay + w * w;
-                a.weight = a.weight * decay + T::one();
-                if let Some(p) = a.prev {
-                    a.lag = a.lag * decay + w * p;
-                }
-                a.prev = Some(w);
-                score += *c * u.innovation / u.variance;
-                info += *c * *c / u.variance;
+        let (mut score, mut info) = (T::zero(), T::zero());
+        for ((updates, col), sums) in channels.iter().zip(self.axes.chunks_exact_mut(3)) {
+            let Some(updates) = updates else { continue };
+            for ((u, c), a) in updates.iter().zip(col.iter()).zip(sums.iter_mut()) {
+                let (s, i) = a.push(u, *c, decay);
+                score += s;
+                info += i;
             }
         }
         self.block += score;
@@ -332,6 +335,7 @@ impl<T: Real> Watch<T> {
         }
     }
 
+    #[inline(never)]
     fn close_block(&mut self, t: f64) {
         let (sb, ib) = (self.block, self.block_info);
         self.sum += sb;
@@ -379,6 +383,7 @@ impl<T: Real> Watch<T> {
     }
 
     /// The verdict at the end of a window.
+    #[inline(never)]
     fn judge(&mut self, t: f64, delay_passed: bool, positive: bool) {
         let warm = self.first_t.is_some_and(|t0| t - t0 >= WARMUP_S);
         let same = self.delay_streak == 0 || positive == self.delay_positive;
@@ -412,28 +417,30 @@ impl<T: Real> Watch<T> {
 
     /// The axis whose NIS is furthest outside the band (log ratio), if any.
     fn nis_out_of_band(&self) -> Option<u8> {
-        let (lo, hi) = NIS_BAND;
-        let mut worst: Option<(u8, f64)> = None;
-        for (k, a) in self.axes.iter().enumerate() {
-            if a.weight <= T::zero() {
+        let (lo, hi) = (T::of(NIS_BAND.0), T::of(NIS_BAND.1));
+        let mut worst: Option<(u8, T)> = None;
+        for (k, a) in (0u8..).zip(self.axes.iter()) {
+            // nis = sq/weight, compared without dividing: out of band by the ratio
+            // nis/hi above, lo/nis below (infinite for sq = 0).
+            let (sq, n) = (a.sq, a.weight);
+            let out = if n <= T::zero() {
                 continue;
-            }
-            let nis = (a.sq / a.weight).to_f64();
-            let out = if nis > hi {
-                nis / hi
-            } else if nis < lo {
-                lo / nis.max(f64::MIN_POSITIVE)
+            } else if sq > hi * n {
+                sq / (hi * n)
+            } else if sq < lo * n {
+                lo * n / sq
             } else {
                 continue;
             };
             if worst.is_none_or(|(_, w)| out > w) {
-                worst = Some((k as u8, out));
+                worst = Some((k, out));
             }
         }
         worst.map(|(k, _)| k)
     }
 
     /// The current figures and verdict.
+    #[inline(never)]
     pub fn report(&self) -> WatchReport {
         let mut r = self.report;
         for ((nis, white), a) in r

@@ -48,6 +48,7 @@ use flexcal_core::link::{
 };
 use flexcal_core::model::{N, TH};
 use flexcal_core::probe::{self, Phase};
+use flexcal_core::watch::Watch;
 use nalgebra::Vector3;
 
 use crate::imu::ImuSource;
@@ -299,6 +300,9 @@ pub struct App {
     config: Option<ConfigMsg>,
     replay: ReplaySource,
     ident: [ArIdentifier<f32, IDENT_MAX_ORDER>; 3],
+    /// The watcher of the innovations (`flexcal_core::watch`), sent in every Status;
+    /// started again at each Config.
+    watch: Watch<f32>,
     counters: AppCounters,
     /// Latest time of validity received (s).
     last_t: f64,
@@ -321,6 +325,7 @@ impl App {
             config: None,
             replay: ReplaySource::new(),
             ident: [ArIdentifier::new(); 3],
+            watch: Watch::with_geometry(&Vector3::zeros(), &Vector3::zeros()),
             counters: AppCounters::default(),
             last_t: 0.0,
             ended: false,
@@ -405,6 +410,7 @@ impl App {
                 .as_ref()
                 .map(BoardEngine::health)
                 .unwrap_or_default(),
+            watch: self.watch.report(),
         }
     }
 
@@ -463,7 +469,9 @@ impl App {
                     return;
                 };
                 let mut reports = StepReports::new();
-                let pushed = engine.push_master(m.to_engine(), &mut reports);
+                let nav = m.to_engine();
+                self.watch.observe_master(&nav);
+                let pushed = engine.push_master(nav, &mut reports);
                 // Matches made before an overflow refusal are reported all the same.
                 self.on_reports(&reports, out);
                 if pushed.is_err() {
@@ -484,7 +492,9 @@ impl App {
         self.ended = false;
         self.config = None;
         // The old engine goes first (`create` empties the slot): the new one takes its place.
-        match BoardEngine::create(&mut self.engine, c.to_engine::<f32>()) {
+        let cfg = c.to_engine::<f32>();
+        self.watch = Watch::new(&cfg);
+        match BoardEngine::create(&mut self.engine, cfg) {
             Ok(()) => {
                 if let Some(e) = self.engine.as_ref() {
                     info!(
@@ -552,8 +562,9 @@ impl App {
         let Some(cfg) = self.config else {
             return;
         };
-        for _ in reports {
+        for r in reports {
             self.counters.master_updates = self.counters.master_updates.wrapping_add(1);
+            self.watch.observe(r);
             if let Some(e) = self.engine.as_ref() {
                 let _phase = probe::enter(Phase::Identifier);
                 let th = e.flexure();
