@@ -636,6 +636,7 @@ mod tests {
     use flexcal_core::flexure::{ArAxis, AxisModel, FlexureModel};
     use flexcal_core::link::{EndMsg, ImuSampleMsg, MasterNavMsg, Receiver};
     use flexcal_core::model::{LeverBending, ProcessNoise};
+    use flexcal_core::watch::WatchReport;
     use nalgebra::Vector3;
 
     const DT: f64 = 0.01;
@@ -762,8 +763,11 @@ mod tests {
     }
 
     /// The engine driven directly with the same messages, as `flexcal calibrate` does.
-    fn direct(msgs: &[Message]) -> (EstimatesMsg, u32) {
+    /// The engine and the watcher driven directly: the last estimates, the number of
+    /// master updates and the watcher's report.
+    fn direct(msgs: &[Message]) -> (EstimatesMsg, u32, WatchReport) {
         let mut engine: Option<Engine<f32>> = None;
+        let mut watch = None;
         let mut updates = 0u32;
         let mut r = StepReports::new();
         for m in msgs {
@@ -771,10 +775,15 @@ mod tests {
             let pushed = match m {
                 Message::Config(c) => {
                     engine = Some(Engine::new(c.to_engine()).unwrap());
+                    watch = Some(Watch::new(&c.to_engine()));
                     continue;
                 }
                 Message::ImuSample(s) => e.unwrap().push_imu(s.to_engine(), &mut r),
-                Message::MasterNav(s) => e.unwrap().push_master(s.to_engine(), &mut r),
+                Message::MasterNav(s) => {
+                    let nav = s.to_engine();
+                    watch.as_mut().unwrap().observe_master(&nav);
+                    e.unwrap().push_master(nav, &mut r)
+                }
                 Message::End(_) => {
                     e.unwrap().flush(&mut r);
                     Ok(())
@@ -784,10 +793,14 @@ mod tests {
             if pushed.is_ok() {
                 updates += r.len() as u32;
             }
+            for report in &r {
+                watch.as_mut().unwrap().observe(report);
+            }
         }
         let e = engine.unwrap();
         let flags = HealthFlags::from_engine(&e.health(), &e.counters());
-        (EstimatesMsg::from_engine(&e.estimates(), flags), updates)
+        let w = watch.unwrap().report();
+        (EstimatesMsg::from_engine(&e.estimates(), flags), updates, w)
     }
 
     fn last_estimates(sent: &[Message]) -> EstimatesMsg {
@@ -815,7 +828,7 @@ mod tests {
         let msgs = stream(1500, config(1, 100));
         let bytes: std::vec::Vec<u8> = encode_all(&msgs).concat();
         let (app, sent) = run_app(&bytes);
-        let (want, updates) = direct(&msgs);
+        let (want, updates, watch) = direct(&msgs);
         assert!(app.ended());
         assert!(updates > 1000, "{updates} master updates");
         let c = app.counters();
@@ -837,6 +850,13 @@ mod tests {
         assert_eq!(st.link.decoder.errors(), 0);
         assert_eq!(st.engine.master_matched, updates);
         assert_eq!(st.engine.imu_samples, 1500);
+        // The watcher saw every master message and every update, as driven directly.
+        assert_eq!(st.watch, watch);
+        assert!(
+            st.watch.nis.iter().take(6).all(|n| *n > 0.0),
+            "{:?}",
+            st.watch
+        );
         // The identifier ran on θ̂ after every update.
         let fits = app.flexure_fit();
         assert!(fits.iter().all(|f| f.is_some_and(|f| f.residuals > 1000)));

@@ -107,3 +107,59 @@ fn onset_latency_over_seeds_and_window_phases() {
     }
     eprintln!("worst latency {worst:.2} s");
 }
+
+/// False alarms of the watcher on clean recordings, for `docs/diagnosis.md` ("The board
+/// watches itself"): `moored` with the configuration it declares, seeds 1–20, and blind
+/// draws (nothing declared: the model learned from the recording as `calibrate` learns
+/// it; `flexcal simulate --blind --seed N`'s scenarios, no undeclared effect), seeds
+/// 101–110, 300 s each. Prints one line per recording and the counts; asserts nothing
+/// beyond the runs (the figures are the point, and the blind ones take minutes):
+/// `cargo test --release -p flexcal-sim --test watch -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn false_alarms_on_clean_recordings() {
+    use flexcal_sim::cmd::calibrate::prepare_config;
+    use flexcal_sim::cmd::common::ModelArgs;
+    use flexcal_sim::sim::blind;
+    let verdicts = |points: &[WatchPoint]| {
+        let flagged = points
+            .iter()
+            .find(|p| !matches!(p.report.verdict, Verdict::Consistent | Verdict::Warming));
+        let last = points.last().map(|p| p.report);
+        (flagged.map(|p| (p.t, p.report.verdict)), last)
+    };
+    let mut declared = (0, 0, 0);
+    for seed in 1..=20 {
+        let points = watch("moored", 300.0, seed, |_| {});
+        let (flag, last) = verdicts(&points);
+        eprintln!("moored seed {seed}: first flag {flag:?}, last {last:?}");
+        declared.0 += 1;
+        declared.1 += usize::from(matches!(flag, Some((_, Verdict::ModelIncomplete { .. }))));
+        declared.2 += usize::from(matches!(flag, Some((_, Verdict::NisOutOfBand { .. }))));
+    }
+    let mut learned = (0, 0, 0);
+    for seed in 101..=110 {
+        let sc = blind::draw(seed, 300.0, None);
+        let rec = simulate(&sc, seed).recording;
+        let empty = std::env::temp_dir().join(format!("flexcal-watch-blind-{seed}"));
+        std::fs::create_dir_all(&empty).expect("temp dir");
+        let p = prepare_config(&rec, &empty, None, &ModelArgs::default()).expect("prepared");
+        let points = host_watch(&stream_messages(&rec, &p.cfg, 1, 0)).expect("host watch");
+        let (flag, last) = verdicts(&points);
+        eprintln!(
+            "blind seed {seed} (master {} Hz): first flag {flag:?}, last {last:?}",
+            sc.master.rate_hz
+        );
+        learned.0 += 1;
+        learned.1 += usize::from(matches!(flag, Some((_, Verdict::ModelIncomplete { .. }))));
+        learned.2 += usize::from(matches!(flag, Some((_, Verdict::NisOutOfBand { .. }))));
+    }
+    eprintln!(
+        "declared moored: {} recordings, model incomplete {}, NIS out of band {}",
+        declared.0, declared.1, declared.2
+    );
+    eprintln!(
+        "blind, learned: {} recordings, model incomplete {}, NIS out of band {}",
+        learned.0, learned.1, learned.2
+    );
+}
