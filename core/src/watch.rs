@@ -183,8 +183,6 @@ struct AxisSums<T: Real> {
 impl<T: Real> AxisSums<T> {
     /// Takes one scalar update with its candidate column `c`, the sums decayed by
     /// `decay`; returns its terms of the score and the information, `c ν/s` and `c²/s`.
-    /// Not inlined: one copy for the nine axes (flash).
-    #[inline(never)]
     fn push(&mut self, u: &ScalarUpdate<T>, c: T, decay: T) -> (T, T) {
         if !(u.variance > T::zero() && u.innovation.is_finite()) {
             return (T::zero(), T::zero());
@@ -302,7 +300,6 @@ impl<T: Real> Watch<T> {
     }
 
     /// Takes one master update's report.
-    #[inline(never)]
     pub fn observe(&mut self, r: &MatchReport<T>) {
         let first = *self.first_t.get_or_insert(r.t);
         if first == r.t {
@@ -335,7 +332,6 @@ impl<T: Real> Watch<T> {
         }
     }
 
-    #[inline(never)]
     fn close_block(&mut self, t: f64) {
         let (sb, ib) = (self.block, self.block_info);
         self.sum += sb;
@@ -383,7 +379,6 @@ impl<T: Real> Watch<T> {
     }
 
     /// The verdict at the end of a window.
-    #[inline(never)]
     fn judge(&mut self, t: f64, delay_passed: bool, positive: bool) {
         let warm = self.first_t.is_some_and(|t0| t - t0 >= WARMUP_S);
         let same = self.delay_streak == 0 || positive == self.delay_positive;
@@ -440,7 +435,6 @@ impl<T: Real> Watch<T> {
     }
 
     /// The current figures and verdict.
-    #[inline(never)]
     pub fn report(&self) -> WatchReport {
         let mut r = self.report;
         for ((nis, white), a) in r
