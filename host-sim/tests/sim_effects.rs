@@ -467,6 +467,12 @@ fn undeclared_values_are_validated() {
             "`undeclared.master_delay_rate`",
         );
     }
+    for from in [-0.5, f64::NAN, f64::INFINITY] {
+        check(
+            &|sc| sc.undeclared.master_delay_from_s = Some(from),
+            "`undeclared.master_delay_from_s`",
+        );
+    }
     check(
         &|sc| sc.undeclared.lever_arm_error_m = [0.0, f64::NAN, 0.0],
         "`undeclared.lever_arm_error_m`",
