@@ -4,7 +4,7 @@
 //! no flag. The QEMU twin is `tests/tests/qemu_replay.rs`.
 
 use flexcal_core::augment::Effect;
-use flexcal_core::watch::Verdict;
+use flexcal_core::watch::{Verdict, WINDOW_S};
 use flexcal_sim::calib::config::CalibConfig;
 use flexcal_sim::cmd::replay::{host_watch, stream_messages, WatchPoint};
 use flexcal_sim::sim::{simulate, Scenario};
@@ -70,6 +70,20 @@ fn a_delay_that_appears_halfway_is_named_within_60_s() {
         flag > onset && flag - onset <= 60.0,
         "named at {flag} s, onset {onset} s"
     );
+    // The sign of `augment.rs`'s delay block: a late master gives a positive score in
+    // every window after the onset (τ̂ is a small fraction of the 20 ms: the filter's
+    // states absorb the rest, docs/diagnosis.md).
+    let mut windows = 0;
+    let mut last = u16::MAX;
+    for p in points.iter().filter(|p| p.t > onset + WINDOW_S) {
+        if p.report.windows != last {
+            last = p.report.windows;
+            windows += 1;
+            let est = p.report.delay.estimate;
+            assert!(est > 0.0 && est < 0.02, "window at {}: τ̂ {est} s", p.t);
+        }
+    }
+    assert!(windows >= 6, "{windows} windows after the onset");
 }
 
 #[test]
