@@ -177,3 +177,40 @@ fn false_alarms_on_clean_recordings() {
         learned.0, learned.1, learned.2
     );
 }
+
+/// Detection on blind draws, for `docs/diagnosis.md`: seeds 101–105, 300 s, the model
+/// learned from the recording's first 150 s (its clean half, as a board would be
+/// configured before the fault), a 20 ms master delay from 150 s. Prints when (and
+/// whether) the delay is named; asserts nothing (figures):
+/// `cargo test --release -p flexcal-sim --test watch blind_draws -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn blind_draws_with_a_delay_onset() {
+    use flexcal_sim::cmd::calibrate::prepare_config;
+    use flexcal_sim::cmd::common::ModelArgs;
+    use flexcal_sim::sim::blind;
+    let onset = 150.0;
+    for seed in 101..=105 {
+        let clean = blind::draw(seed, onset, None);
+        let mut sc = blind::draw(seed, 300.0, None);
+        sc.undeclared.master_delay_s = 0.02;
+        sc.undeclared.master_delay_from_s = Some(onset);
+        let learn_on = simulate(&clean, seed).recording;
+        let rec = simulate(&sc, seed).recording;
+        let empty = std::env::temp_dir().join(format!("flexcal-watch-onset-{seed}"));
+        std::fs::create_dir_all(&empty).expect("temp dir");
+        let p = prepare_config(&learn_on, &empty, None, &ModelArgs::default()).expect("prepared");
+        let points = host_watch(&stream_messages(&rec, &p.cfg, 1, 0)).expect("host watch");
+        let flag = first_delay_flag(&points);
+        let other = points
+            .iter()
+            .find(|p| matches!(p.report.verdict, Verdict::NisOutOfBand { .. }))
+            .map(|p| (p.t, p.report.verdict));
+        eprintln!(
+            "blind seed {seed} (master {} Hz, IMU {} Hz): delay named at {flag:?} ({:?} s after the onset); NIS flag {other:?}",
+            sc.master.rate_hz,
+            sc.slave_imu.rate_hz,
+            flag.map(|t| t - onset)
+        );
+    }
+}
