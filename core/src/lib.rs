@@ -31,3 +31,4 @@ pub mod real;
 pub mod rotation;
 pub mod stats;
 pub mod strapdown;
+pub mod watch;

@@ -22,6 +22,7 @@ use flexcal_core::link::{
     EFFECT_STATES_PER_FRAME, MAX_FRAME_LEN,
 };
 use flexcal_core::model::LeverBending;
+use flexcal_core::watch::{ScoreFigures, Verdict, WatchReport, AXES};
 use proptest::prelude::*;
 
 /// One slot per stream.
@@ -108,50 +109,92 @@ fn estimates() -> impl Strategy<Value = EstimatesMsg> {
         )
 }
 
+/// Any verdict the watcher can give: every kind, every effect, every axis.
+fn verdict() -> impl Strategy<Value = Verdict> {
+    prop_oneof![
+        Just(Verdict::Warming),
+        Just(Verdict::Consistent),
+        prop::sample::select(Effect::ALL.to_vec())
+            .prop_map(|most_likely| Verdict::ModelIncomplete { most_likely }),
+        (0..AXES as u8).prop_map(|axis| Verdict::NisOutOfBand { axis }),
+    ]
+}
+
+/// Any watcher report (finite figures).
+fn watch_report() -> impl Strategy<Value = WatchReport> {
+    (
+        prop::array::uniform9(finite_f32()),
+        prop::array::uniform9(finite_f32()),
+        prop::array::uniform4(finite_f32()),
+        any::<u16>(),
+        verdict(),
+    )
+        .prop_map(
+            |(nis, whiteness, [lm, t2, estimate, sigma], windows, verdict)| WatchReport {
+                nis,
+                whiteness,
+                delay: ScoreFigures {
+                    lm,
+                    t2,
+                    estimate,
+                    sigma,
+                },
+                windows,
+                verdict,
+            },
+        )
+}
+
 fn status() -> impl Strategy<Value = StatusMsg> {
-    (finite_f64(), prop::collection::vec(any::<u32>(), 30)).prop_map(|(t, c)| StatusMsg {
-        t,
-        link: LinkCounters {
-            decoder: DecoderCounters {
-                frames: c[0],
-                oversize: c[1],
-                cobs: c[2],
-                too_short: c[3],
-                crc: c[4],
-                unknown_type: c[5],
-                bad_length: c[6],
-                non_finite: c[7],
-                bad_value: c[8],
+    (
+        finite_f64(),
+        prop::collection::vec(any::<u32>(), 30),
+        watch_report(),
+    )
+        .prop_map(|(t, c, watch)| StatusMsg {
+            t,
+            link: LinkCounters {
+                decoder: DecoderCounters {
+                    frames: c[0],
+                    oversize: c[1],
+                    cobs: c[2],
+                    too_short: c[3],
+                    crc: c[4],
+                    unknown_type: c[5],
+                    bad_length: c[6],
+                    non_finite: c[7],
+                    bad_value: c[8],
+                },
+                sequence: SequenceCounters {
+                    accepted: c[9],
+                    gaps: c[10],
+                    missed: c[11],
+                    duplicates: c[12],
+                    out_of_order: c[13],
+                    stale: c[14],
+                    resyncs: c[15],
+                },
             },
-            sequence: SequenceCounters {
-                accepted: c[9],
-                gaps: c[10],
-                missed: c[11],
-                duplicates: c[12],
-                out_of_order: c[13],
-                stale: c[14],
-                resyncs: c[15],
+            engine: Counters {
+                imu_samples: c[16],
+                master_matched: c[17],
+                master_stale: c[18],
+                master_out_of_order: c[19],
+                master_dropped: c[20],
+                predictions: c[21],
+                resets: c[22],
             },
-        },
-        engine: Counters {
-            imu_samples: c[16],
-            master_matched: c[17],
-            master_stale: c[18],
-            master_out_of_order: c[19],
-            master_dropped: c[20],
-            predictions: c[21],
-            resets: c[22],
-        },
-        health: Health {
-            updates: c[23],
-            gated: c[24],
-            max_gated_streak: c[25],
-            gated_streak: c[26],
-            non_finite: c[27],
-            variance_clamped: c[28],
-            bad_innovation_variance: c[29],
-        },
-    })
+            health: Health {
+                updates: c[23],
+                gated: c[24],
+                max_gated_streak: c[25],
+                gated_streak: c[26],
+                non_finite: c[27],
+                variance_clamped: c[28],
+                bad_innovation_variance: c[29],
+            },
+            watch,
+        })
 }
 
 fn positive_f32() -> impl Strategy<Value = f32> {

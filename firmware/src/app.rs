@@ -48,6 +48,7 @@ use flexcal_core::link::{
 };
 use flexcal_core::model::{N, TH};
 use flexcal_core::probe::{self, Phase};
+use flexcal_core::watch::Watch;
 use nalgebra::Vector3;
 
 use crate::imu::ImuSource;
@@ -299,6 +300,9 @@ pub struct App {
     config: Option<ConfigMsg>,
     replay: ReplaySource,
     ident: [ArIdentifier<f32, IDENT_MAX_ORDER>; 3],
+    /// The watcher of the innovations (`flexcal_core::watch`), sent in every Status;
+    /// started again at each Config.
+    watch: Watch<f32>,
     counters: AppCounters,
     /// Latest time of validity received (s).
     last_t: f64,
@@ -321,6 +325,7 @@ impl App {
             config: None,
             replay: ReplaySource::new(),
             ident: [ArIdentifier::new(); 3],
+            watch: Watch::with_geometry(&Vector3::zeros(), &Vector3::zeros()),
             counters: AppCounters::default(),
             last_t: 0.0,
             ended: false,
@@ -405,6 +410,7 @@ impl App {
                 .as_ref()
                 .map(BoardEngine::health)
                 .unwrap_or_default(),
+            watch: self.watch.report(),
         }
     }
 
@@ -463,7 +469,9 @@ impl App {
                     return;
                 };
                 let mut reports = StepReports::new();
-                let pushed = engine.push_master(m.to_engine(), &mut reports);
+                let nav = m.to_engine();
+                self.watch.observe_master(&nav);
+                let pushed = engine.push_master(nav, &mut reports);
                 // Matches made before an overflow refusal are reported all the same.
                 self.on_reports(&reports, out);
                 if pushed.is_err() {
@@ -484,7 +492,9 @@ impl App {
         self.ended = false;
         self.config = None;
         // The old engine goes first (`create` empties the slot): the new one takes its place.
-        match BoardEngine::create(&mut self.engine, c.to_engine::<f32>()) {
+        let cfg = c.to_engine::<f32>();
+        self.watch = Watch::new(&cfg);
+        match BoardEngine::create(&mut self.engine, cfg) {
             Ok(()) => {
                 if let Some(e) = self.engine.as_ref() {
                     info!(
@@ -552,8 +562,9 @@ impl App {
         let Some(cfg) = self.config else {
             return;
         };
-        for _ in reports {
+        for r in reports {
             self.counters.master_updates = self.counters.master_updates.wrapping_add(1);
+            self.watch.observe(r);
             if let Some(e) = self.engine.as_ref() {
                 let _phase = probe::enter(Phase::Identifier);
                 let th = e.flexure();
@@ -625,6 +636,7 @@ mod tests {
     use flexcal_core::flexure::{ArAxis, AxisModel, FlexureModel};
     use flexcal_core::link::{EndMsg, ImuSampleMsg, MasterNavMsg, Receiver};
     use flexcal_core::model::{LeverBending, ProcessNoise};
+    use flexcal_core::watch::WatchReport;
     use nalgebra::Vector3;
 
     const DT: f64 = 0.01;
@@ -751,8 +763,11 @@ mod tests {
     }
 
     /// The engine driven directly with the same messages, as `flexcal calibrate` does.
-    fn direct(msgs: &[Message]) -> (EstimatesMsg, u32) {
+    /// The engine and the watcher driven directly: the last estimates, the number of
+    /// master updates and the watcher's report.
+    fn direct(msgs: &[Message]) -> (EstimatesMsg, u32, WatchReport) {
         let mut engine: Option<Engine<f32>> = None;
+        let mut watch = None;
         let mut updates = 0u32;
         let mut r = StepReports::new();
         for m in msgs {
@@ -760,10 +775,15 @@ mod tests {
             let pushed = match m {
                 Message::Config(c) => {
                     engine = Some(Engine::new(c.to_engine()).unwrap());
+                    watch = Some(Watch::new(&c.to_engine()));
                     continue;
                 }
                 Message::ImuSample(s) => e.unwrap().push_imu(s.to_engine(), &mut r),
-                Message::MasterNav(s) => e.unwrap().push_master(s.to_engine(), &mut r),
+                Message::MasterNav(s) => {
+                    let nav = s.to_engine();
+                    watch.as_mut().unwrap().observe_master(&nav);
+                    e.unwrap().push_master(nav, &mut r)
+                }
                 Message::End(_) => {
                     e.unwrap().flush(&mut r);
                     Ok(())
@@ -773,10 +793,14 @@ mod tests {
             if pushed.is_ok() {
                 updates += r.len() as u32;
             }
+            for report in &r {
+                watch.as_mut().unwrap().observe(report);
+            }
         }
         let e = engine.unwrap();
         let flags = HealthFlags::from_engine(&e.health(), &e.counters());
-        (EstimatesMsg::from_engine(&e.estimates(), flags), updates)
+        let w = watch.unwrap().report();
+        (EstimatesMsg::from_engine(&e.estimates(), flags), updates, w)
     }
 
     fn last_estimates(sent: &[Message]) -> EstimatesMsg {
@@ -804,7 +828,7 @@ mod tests {
         let msgs = stream(1500, config(1, 100));
         let bytes: std::vec::Vec<u8> = encode_all(&msgs).concat();
         let (app, sent) = run_app(&bytes);
-        let (want, updates) = direct(&msgs);
+        let (want, updates, watch) = direct(&msgs);
         assert!(app.ended());
         assert!(updates > 1000, "{updates} master updates");
         let c = app.counters();
@@ -826,6 +850,13 @@ mod tests {
         assert_eq!(st.link.decoder.errors(), 0);
         assert_eq!(st.engine.master_matched, updates);
         assert_eq!(st.engine.imu_samples, 1500);
+        // The watcher saw every master message and every update, as driven directly.
+        assert_eq!(st.watch, watch);
+        assert!(
+            st.watch.nis.iter().take(6).all(|n| *n > 0.0),
+            "{:?}",
+            st.watch
+        );
         // The identifier ran on θ̂ after every update.
         let fits = app.flexure_fit();
         assert!(fits.iter().all(|f| f.is_some_and(|f| f.residuals > 1000)));

@@ -103,6 +103,43 @@ fn master_delay_shifts_master_truth_back_by_tau() {
     }
 }
 
+/// A delay that appears in service (`master_delay_from_s`): the messages stamped before
+/// the onset are the undelayed run's, those from it on the run's delayed by τ, message
+/// for message; the slave IMU does not change; `tau_from` is in the truth.
+#[test]
+fn master_delay_appears_at_its_onset() {
+    let base = quiet();
+    let mut late = base.clone();
+    late.undeclared.master_delay_s = 0.02;
+    let mut onset = late.clone();
+    onset.undeclared.master_delay_from_s = Some(3.0);
+    let (b, l, o) = (run(&base), run(&late), run(&onset));
+    assert_eq!(b.imu, o.imu);
+    let mut before = 0;
+    for ((mo, mb), ml) in o.master.iter().zip(&b.master).zip(&l.master) {
+        let want = if mo.t < 3.0 { mb } else { ml };
+        before += usize::from(mo.t < 3.0);
+        assert_eq!(mo.q_bm_n, want.q_bm_n, "attitude at {}", mo.t);
+        assert_eq!(
+            mo.omega_ib_bm_radps, want.omega_ib_bm_radps,
+            "rate at {}",
+            mo.t
+        );
+    }
+    assert_eq!(before, 300, "3 s of 100 Hz on time");
+    assert!(
+        angle(&q(&o.master[500]), &q(&b.master[500])) > 1e-4,
+        "late after it"
+    );
+    let from = o.truth.as_ref().and_then(|t| t.column("tau_from"));
+    assert!(from.expect("tau_from").iter().all(|v| *v == 3.0));
+    assert!(b
+        .truth
+        .as_ref()
+        .and_then(|t| t.column("tau_from"))
+        .is_none());
+}
+
 /// A drifting master clock (`master_delay_rate` τ̇, here with an offset τ₀ too): the
 /// message stamped `t` is the master of `t − τ₀ − τ̇ t`. Its attitude at every stamp is
 /// the closed-form motion's there; where the delay is a whole number of master periods
@@ -398,6 +435,13 @@ fn scenario_files_load() {
         period_s: 37.0,
     });
     assert_eq!(load("moored-wave.toml"), expected);
+
+    let mut expected = moored.clone();
+    expected.name = "moored-delay-onset".into();
+    expected.duration_s = 240.0;
+    expected.undeclared.master_delay_s = 0.02;
+    expected.undeclared.master_delay_from_s = Some(120.0);
+    assert_eq!(load("moored-delay-onset.toml"), expected);
 }
 
 /// Values a simulation cannot run with are refused, naming the key; unknown keys in
@@ -421,6 +465,12 @@ fn undeclared_values_are_validated() {
         check(
             &|sc| sc.undeclared.master_delay_rate = rate,
             "`undeclared.master_delay_rate`",
+        );
+    }
+    for from in [-0.5, f64::NAN, f64::INFINITY] {
+        check(
+            &|sc| sc.undeclared.master_delay_from_s = Some(from),
+            "`undeclared.master_delay_from_s`",
         );
     }
     check(

@@ -27,7 +27,7 @@ use flexcal_sim::calib::config::CalibConfig;
 use flexcal_sim::calib::run::{run, CalibResult, Precision};
 use flexcal_sim::cmd::common::{ModelArgs, ScenarioArgs};
 use flexcal_sim::cmd::replay::{
-    encode_frames, run_qemu, stream_messages, QemuRun, Timing, Transport,
+    encode_frames, first_flag, host_watch, run_qemu, stream_messages, QemuRun, Timing, Transport,
 };
 use flexcal_sim::recording::{read_recording, write_recording, Recording};
 use flexcal_sim::sim::{simulate, Scenario};
@@ -515,4 +515,84 @@ fn paper_gyro_scale_factor_in_qemu_matches_calibrate_f32() {
         summary["effects"][0]["name"], "gyro_scale_factor",
         "{summary}"
     );
+}
+
+/// The board's watcher and the host's run of it over the same stream: `(first flag,
+/// last Status)`, after checking that no frame was lost and that board and host agree
+/// (the first flag within one Status interval, 1 s; the last figures within 1 %).
+fn watched(sc: &Scenario, seed: u64, dir: &Path) -> (Option<(f64, Effect)>, StatusMsg) {
+    let rec = simulate(sc, seed).recording;
+    let cfg = CalibConfig::declared_for(sc, 1.0 / sc.master.rate_hz);
+    // Status after every 100th master update: once a second at 100 Hz.
+    let msgs = stream_messages(&rec, &cfg, 0, 100);
+    let frames = encode_frames(&msgs).expect("encode");
+    let run_q = replay(&rec, &cfg, &frames.concat(), Transport::Semihosting, dir);
+    let statuses = run_q.statuses();
+    let last = *statuses.last().expect("no Status");
+    assert_eq!(
+        last.link.decoder.frames as usize,
+        frames.len(),
+        "no frame lost"
+    );
+    let board = first_flag(statuses.iter().map(|s| (s.t, s.watch)));
+    let host = host_watch(&msgs).expect("host watch");
+    let host_first = first_flag(host.iter().map(|p| (p.t, p.report)));
+    eprintln!("board: first flag {board:?}, last {:?}", last.watch);
+    eprintln!(
+        "host:  first flag {host_first:?}, last {:?}",
+        host.last().map(|p| p.report)
+    );
+    match (board, host_first) {
+        (Some((tb, eb)), Some((th, eh))) => {
+            assert_eq!(eb, eh, "board and host name the same effect");
+            assert!((tb - th).abs() <= 1.0, "board {tb} s, host {th} s");
+        }
+        (None, None) => {}
+        other => panic!("board and host disagree: {other:?}"),
+    }
+    let h = host.last().expect("host points").report;
+    assert_eq!(h.verdict, last.watch.verdict);
+    for (b, h) in last.watch.nis.iter().zip(h.nis.iter()) {
+        assert!(
+            (b - h).abs() <= 0.01 * h.abs().max(1e-3),
+            "NIS board {b} host {h}"
+        );
+    }
+    (board, last)
+}
+
+/// Issue 10, acceptance 6: a recording whose master delay (20 ms) appears halfway
+/// (`scenarios/moored-delay-onset.toml`, onset at 120 s of 240 s): the board's Status
+/// flags the model incomplete, naming the delay, within 60 s of the onset; the same
+/// recording without the delay raises no flag. Board and host agree.
+#[test]
+fn the_board_names_a_delay_that_appears_in_service() {
+    if !qemu_or_skip() {
+        return;
+    }
+    let root = workspace_root();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let onset_file = root.join("scenarios/moored-delay-onset.toml");
+    let onset = Scenario::load(&onset_file.display().to_string()).expect("scenario");
+    let (flag, last) = watched(&onset, 7, &dir.path().join("onset"));
+    let (t, effect) = flag.expect("the board never flagged the model incomplete");
+    eprintln!(
+        "onset at 120 s, flagged at {t:.2} s: {:.2} s later",
+        t - 120.0
+    );
+    assert_eq!(effect, Effect::TimeDelay);
+    assert!(t > 120.0 && t <= 180.0, "flagged at {t} s");
+    assert!(matches!(
+        last.watch.verdict,
+        flexcal_core::watch::Verdict::ModelIncomplete {
+            most_likely: Effect::TimeDelay
+        }
+    ));
+    // The same ship, seed and length, no delay.
+    let mut clean = onset.clone();
+    clean.undeclared.master_delay_s = 0.0;
+    clean.undeclared.master_delay_from_s = None;
+    let (flag, last) = watched(&clean, 7, &dir.path().join("clean"));
+    assert_eq!(flag, None, "a clean recording flagged");
+    assert_eq!(last.watch.verdict, flexcal_core::watch::Verdict::Consistent);
 }

@@ -442,7 +442,7 @@ mod tests {
         assert_eq!(frame_len(MessageKind::MasterNav), 95);
         assert_eq!(frame_len(MessageKind::ImuSample), 42);
         assert_eq!(frame_len(MessageKind::Estimates), 116);
-        assert_eq!(frame_len(MessageKind::Status), 138);
+        assert_eq!(frame_len(MessageKind::Status), 230);
         assert_eq!(frame_len(MessageKind::Config), 218);
         assert_eq!(frame_len(MessageKind::End), 18);
         assert_eq!(frame_len(MessageKind::Effects), 119);

@@ -25,6 +25,7 @@ use crate::link::receiver::LinkCounters;
 use crate::link::sequence::SequenceCounters;
 use crate::model::{LeverBending, ProcessNoise};
 use crate::real::Real;
+use crate::watch::{ScoreFigures, Verdict, WatchReport, AXES};
 use nalgebra::{Quaternion, Vector3};
 
 /// Payload length of [`MasterNavMsg`].
@@ -33,8 +34,9 @@ pub const MASTER_NAV_LEN: usize = 85;
 pub const IMU_SAMPLE_LEN: usize = 32;
 /// Payload length of [`EstimatesMsg`].
 pub const ESTIMATES_LEN: usize = 106;
-/// Payload length of [`StatusMsg`].
-pub const STATUS_LEN: usize = 128;
+/// Payload length of [`StatusMsg`]: 128 bytes of counters and, from protocol version
+/// 5, 92 bytes of the watcher's report ([`WatchReport`]).
+pub const STATUS_LEN: usize = 220;
 /// Payload length of [`ConfigMsg`].
 pub const CONFIG_LEN: usize = 208;
 /// Payload length of [`EndMsg`].
@@ -274,8 +276,9 @@ pub struct EstimatesMsg {
     pub health: HealthFlags,
 }
 
-/// Counters (type `0x82`, 128-byte payload): the board's link counters, the engine's
-/// input counters and the filter's health counters, each a wrapping `u32`.
+/// Status (type `0x82`, 220-byte payload): the board's link counters, the engine's
+/// input counters and the filter's health counters, each a wrapping `u32`, then what
+/// the board's watcher (`crate::watch`) says of the innovations.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct StatusMsg {
     /// Time the counters were read (s).
@@ -286,6 +289,8 @@ pub struct StatusMsg {
     pub engine: Counters,
     /// The filter's health counters.
     pub health: Health,
+    /// The watcher's figures and verdict.
+    pub watch: WatchReport,
 }
 
 /// One block of the augmentation as a Config carries it: the effect and the prior σ of
@@ -799,10 +804,21 @@ impl Message {
                 Ok(())
             }
             Message::Status(m) => {
-                if m.t.is_finite() {
-                    Ok(())
-                } else {
-                    Err(PayloadError::NonFinite)
+                let w = &m.watch;
+                let d = &w.delay;
+                let figures = [d.lm, d.t2, d.estimate, d.sigma];
+                if !(m.t.is_finite()
+                    && finite32(&w.nis)
+                    && finite32(&w.whiteness)
+                    && finite32(&figures))
+                {
+                    return Err(PayloadError::NonFinite);
+                }
+                match w.verdict {
+                    Verdict::NisOutOfBand { axis } if usize::from(axis) >= AXES => {
+                        Err(PayloadError::BadValue)
+                    }
+                    _ => Ok(()),
                 }
             }
             Message::Config(m) => {
@@ -933,6 +949,15 @@ impl Message {
                 for c in status_counters(m) {
                     w.bytes(c.to_le_bytes())?;
                 }
+                let r = &m.watch;
+                w.f32s(&r.nis)?;
+                w.f32s(&r.whiteness)?;
+                let d = &r.delay;
+                w.f32s(&[d.lm, d.t2, d.estimate, d.sigma])?;
+                w.bytes(r.windows.to_le_bytes())?;
+                let (kind, detail) = verdict_bytes(r.verdict);
+                w.u8(kind)?;
+                w.u8(detail)?;
             }
             Message::Config(m) => {
                 w.f64(m.t)?;
@@ -1054,7 +1079,28 @@ impl Message {
                 for slot in c.iter_mut() {
                     *slot = r.u32()?;
                 }
-                Message::Status(status_from_counters(t, &c))
+                let mut m = status_from_counters(t, &c);
+                let nis = r.f32s()?;
+                let whiteness = r.f32s()?;
+                let [lm, t2, estimate, sigma] = r.f32s()?;
+                let windows = u16::from_le_bytes(r.bytes()?);
+                let (kind, detail) = (r.u8()?, r.u8()?);
+                let Some(verdict) = verdict_of(kind, detail) else {
+                    return Some(Err(PayloadError::BadValue));
+                };
+                m.watch = WatchReport {
+                    nis,
+                    whiteness,
+                    delay: ScoreFigures {
+                        lm,
+                        t2,
+                        estimate,
+                        sigma,
+                    },
+                    windows,
+                    verdict,
+                };
+                Message::Status(m)
             }
             MessageKind::Config => {
                 let t = r.f64()?;
@@ -1310,6 +1356,31 @@ fn status_counters(m: &StatusMsg) -> [u32; STATUS_COUNTERS] {
     ]
 }
 
+/// A watcher's verdict on the wire: kind (0 warming, 1 consistent, 2 model incomplete,
+/// 3 NIS out of band) and detail (the effect's code for 2, the channel axis for 3, else 0).
+fn verdict_bytes(v: Verdict) -> (u8, u8) {
+    match v {
+        Verdict::Warming => (0, 0),
+        Verdict::Consistent => (1, 0),
+        Verdict::ModelIncomplete { most_likely } => (2, most_likely.code()),
+        Verdict::NisOutOfBand { axis } => (3, axis),
+    }
+}
+
+/// The inverse of [`verdict_bytes`]; `None` for bytes it never writes (an unknown kind
+/// or effect, an axis past the last, a detail where none belongs).
+fn verdict_of(kind: u8, detail: u8) -> Option<Verdict> {
+    match (kind, detail) {
+        (0, 0) => Some(Verdict::Warming),
+        (1, 0) => Some(Verdict::Consistent),
+        (2, code) => {
+            Effect::from_code(code).map(|most_likely| Verdict::ModelIncomplete { most_likely })
+        }
+        (3, axis) if usize::from(axis) < AXES => Some(Verdict::NisOutOfBand { axis }),
+        _ => None,
+    }
+}
+
 /// The inverse of [`status_counters`].
 fn status_from_counters(t: f64, c: &[u32; STATUS_COUNTERS]) -> StatusMsg {
     let [frames, oversize, cobs, too_short, crc, unknown_type, bad_length, non_finite, bad_value, accepted, gaps, missed, duplicates, out_of_order, stale, resyncs, imu_samples, master_matched, master_stale, master_out_of_order, master_dropped, predictions, resets, updates, gated, max_gated_streak, gated_streak, h_non_finite, variance_clamped, bad_innovation_variance] =
@@ -1356,6 +1427,7 @@ fn status_from_counters(t: f64, c: &[u32; STATUS_COUNTERS]) -> StatusMsg {
             variance_clamped,
             bad_innovation_variance,
         },
+        watch: WatchReport::default(),
     }
 }
 
@@ -1706,14 +1778,78 @@ mod tests {
         assert_eq!(m.health.updates, 1023);
         assert_eq!(m.health.gated, 1024);
         assert_eq!(m.health.bad_innovation_variance, 1029);
+        let mut m = m;
+        m.watch = WatchReport {
+            nis: core::array::from_fn(|i| 1.0 + i as f32 / 8.0),
+            whiteness: core::array::from_fn(|i| -0.5 + i as f32 / 16.0),
+            delay: ScoreFigures {
+                lm: 120.5,
+                t2: 30.25,
+                estimate: 0.0185,
+                sigma: 2.5e-4,
+            },
+            windows: 0x1234,
+            verdict: Verdict::ModelIncomplete {
+                most_likely: Effect::TimeDelay,
+            },
+        };
         let (b, n) = payload(&Message::Status(m));
-        assert_eq!(n, 128);
+        assert_eq!(n, 220);
         assert_eq!(f64_at(&b, 0), 7.0);
         for (i, want) in c.iter().enumerate() {
             assert_eq!(u32_at(&b, 8 + 4 * i), *want);
         }
+        for i in 0..9 {
+            assert_eq!(f32_at(&b, 128 + 4 * i), m.watch.nis[i]);
+            assert_eq!(f32_at(&b, 164 + 4 * i), m.watch.whiteness[i]);
+        }
+        assert_eq!(
+            [200, 204, 208, 212].map(|o| f32_at(&b, o)),
+            [120.5, 30.25, 0.0185, 2.5e-4]
+        );
+        assert_eq!(&b[216..220], &[0x34, 0x12, 2, 5]);
         let back = Message::read_payload(MessageKind::Status, &b[..n]).unwrap();
         assert_eq!(back, Message::Status(m));
+    }
+
+    /// Every verdict survives the link; bytes the encoder never writes are refused.
+    #[test]
+    fn status_verdicts_round_trip_and_bad_ones_are_refused() {
+        let mut m = StatusMsg::default();
+        let verdicts = [
+            Verdict::Warming,
+            Verdict::Consistent,
+            Verdict::ModelIncomplete {
+                most_likely: Effect::TimeDelay,
+            },
+            Verdict::NisOutOfBand { axis: 8 },
+        ];
+        for v in verdicts {
+            m.watch.verdict = v;
+            let (b, n) = payload(&Message::Status(m));
+            let back = Message::read_payload(MessageKind::Status, &b[..n]).unwrap();
+            assert_eq!(back, Message::Status(m));
+        }
+        for bad in [[0u8, 1], [1, 7], [2, 0], [2, 200], [3, 9], [4, 0]] {
+            let (mut b, n) = payload(&Message::Status(m));
+            b[218..220].copy_from_slice(&bad);
+            assert_eq!(
+                Message::read_payload(MessageKind::Status, &b[..n]),
+                Err(PayloadError::BadValue),
+                "{bad:?}"
+            );
+        }
+        m.watch.verdict = Verdict::NisOutOfBand { axis: 9 };
+        assert_eq!(Message::Status(m).validate(), Err(PayloadError::BadValue));
+        m.watch.verdict = Verdict::Consistent;
+        m.watch.delay.t2 = f32::NAN;
+        assert_eq!(Message::Status(m).validate(), Err(PayloadError::NonFinite));
+        let (mut b, n) = payload(&Message::Status(StatusMsg::default()));
+        b[132..136].copy_from_slice(&f32::INFINITY.to_le_bytes());
+        assert_eq!(
+            Message::read_payload(MessageKind::Status, &b[..n]),
+            Err(PayloadError::NonFinite)
+        );
     }
 
     pub(crate) fn config() -> ConfigMsg {

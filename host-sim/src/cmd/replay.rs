@@ -29,6 +29,7 @@ use flexcal_core::link::{
     ConfigMsg, EffectsMsg, EndMsg, EstimatesMsg, ImuSampleMsg, MasterNavMsg, Message, Receiver,
     StatusMsg, MAX_FRAME_LEN,
 };
+use flexcal_core::watch::{Verdict, Watch, WatchReport, AXES};
 use nalgebra::SMatrix;
 use std::io::{Read, Write};
 use std::net::TcpListener;
@@ -128,6 +129,71 @@ pub fn stream_messages(
     }
     out.push(Message::End(EndMsg { t: last_t }));
     out
+}
+
+/// The watcher's report after one master update of the host's own run.
+#[derive(Clone, Copy, Debug)]
+pub struct WatchPoint {
+    /// Master updates so far (the board numbers its Status frames by them).
+    pub updates: u32,
+    /// The update's time of validity (s).
+    pub t: f64,
+    /// What the watcher says then.
+    pub report: WatchReport,
+}
+
+/// The board's watcher run on the host: the stream's messages (as [`stream_messages`]
+/// builds them) through `Engine<f32>` of the board's size and [`Watch<f32>`], fed as the
+/// firmware's application feeds them (each master message to the watcher before the
+/// engine, each update's report after). One point per master update.
+pub fn host_watch(msgs: &[Message]) -> Result<Vec<WatchPoint>, String> {
+    let Some(Message::Config(c)) = msgs.first() else {
+        return Err("the stream does not start with a Config".into());
+    };
+    let cfg = c.to_engine::<f32>();
+    if cfg.augmentation.is_empty() {
+        watch_run::<{ flexcal_core::model::N }>(cfg, msgs)
+    } else {
+        watch_run::<33>(cfg, msgs)
+    }
+}
+
+fn watch_run<const S: usize>(
+    cfg: flexcal_core::engine::EngineConfig<f32>,
+    msgs: &[Message],
+) -> Result<Vec<WatchPoint>, String> {
+    use flexcal_core::engine::{Engine, StepReports};
+    let mut watch = Watch::<f32>::new(&cfg);
+    let mut engine = Engine::<f32, S>::new(cfg).map_err(|e| format!("engine: {e:?}"))?;
+    let mut reports = StepReports::new();
+    let mut out = Vec::new();
+    let mut updates = 0u32;
+    for m in msgs {
+        match m {
+            Message::ImuSample(s) => {
+                // Refusals are the engine's counters, as on the board.
+                let _ = engine.push_imu(s.to_engine(), &mut reports);
+            }
+            Message::MasterNav(n) => {
+                let nav = n.to_engine();
+                watch.observe_master(&nav);
+                let _ = engine.push_master(nav, &mut reports);
+            }
+            Message::End(_) => engine.flush(&mut reports),
+            _ => continue,
+        }
+        for r in &reports {
+            watch.observe(r);
+            updates += 1;
+            out.push(WatchPoint {
+                updates,
+                t: r.t,
+                report: watch.report(),
+            });
+        }
+        reports.clear();
+    }
+    Ok(out)
 }
 
 /// Each message as one frame on the wire (sequence numbers per stream from 0).
@@ -231,10 +297,69 @@ impl QemuRun {
 
     /// The last Status message received.
     pub fn last_status(&self) -> Option<StatusMsg> {
-        self.received.iter().rev().find_map(|m| match m {
-            Message::Status(s) => Some(*s),
-            _ => None,
-        })
+        self.statuses().last().copied()
+    }
+
+    /// Every Status message received, in order.
+    pub fn statuses(&self) -> Vec<StatusMsg> {
+        self.received
+            .iter()
+            .filter_map(|m| match m {
+                Message::Status(s) => Some(*s),
+                _ => None,
+            })
+            .collect()
+    }
+}
+
+/// The first time a watcher flagged the model incomplete, and the effect it named: from
+/// `(time, report)` pairs in order.
+pub fn first_flag(points: impl IntoIterator<Item = (f64, WatchReport)>) -> Option<(f64, Effect)> {
+    points.into_iter().find_map(|(t, r)| match r.verdict {
+        Verdict::ModelIncomplete { most_likely } => Some((t, most_likely)),
+        _ => None,
+    })
+}
+
+/// A watcher's report as JSON (`summary.json` → `watch`), with the first flag if any.
+fn watch_json(r: &WatchReport, first: Option<(f64, Effect)>) -> serde_json::Value {
+    serde_json::json!({
+        "verdict": verdict_text(r.verdict),
+        "windows": r.windows,
+        "nis": r.nis,
+        "whiteness": r.whiteness,
+        "delay_s": r.delay.estimate,
+        "delay_sigma_s": r.delay.sigma,
+        "delay_lm": r.delay.lm,
+        "delay_t2": r.delay.t2,
+        "first_flag_t_s": first.map(|f| f.0),
+        "first_flag_effect": first.map(|f| f.1.name()),
+    })
+}
+
+/// A verdict in words ("model incomplete: most likely time_delay").
+pub fn verdict_text(v: Verdict) -> String {
+    const AXIS: [&str; AXES] = [
+        "velocity E",
+        "velocity N",
+        "velocity U",
+        "attitude x",
+        "attitude y",
+        "attitude z",
+        "rate x",
+        "rate y",
+        "rate z",
+    ];
+    match v {
+        Verdict::Warming => "warming up".into(),
+        Verdict::Consistent => "consistent".into(),
+        Verdict::ModelIncomplete { most_likely } => {
+            format!("model incomplete: most likely {}", most_likely.name())
+        }
+        Verdict::NisOutOfBand { axis } => format!(
+            "NIS out of band on {}, no candidate explains it",
+            AXIS.get(usize::from(axis)).unwrap_or(&"?")
+        ),
     }
 }
 
@@ -604,6 +729,8 @@ pub struct Replayed {
     pub qemu: QemuRun,
     /// The board's results as `calibrate`'s (effects' rows included).
     pub result: CalibResult,
+    /// The host's own run of the board's watcher over the same stream ([`host_watch`]).
+    pub host_watch: Vec<WatchPoint>,
 }
 
 /// `flexcal replay` up to its outputs: resolves the configuration as `calibrate` does,
@@ -652,6 +779,7 @@ pub fn replay(a: &Args) -> Result<Replayed, String> {
         });
     }
     let result = result_from_board(&qemu)?;
+    let host_watch = host_watch(&msgs)?;
     Ok(Replayed {
         rec,
         learned,
@@ -661,6 +789,7 @@ pub fn replay(a: &Args) -> Result<Replayed, String> {
         frames_sent: frames.len(),
         qemu,
         result,
+        host_watch,
     })
 }
 
@@ -763,6 +892,16 @@ pub fn write_outputs(a: &Args, r: &Replayed) -> Result<(), String> {
                 "frame_errors_from_board": qemu.rx_errors,
             }),
         );
+        let board_first = first_flag(qemu.statuses().iter().map(|s| (s.t, s.watch)));
+        let host_first = first_flag(r.host_watch.iter().map(|p| (p.t, p.report)));
+        let host_last = r.host_watch.last().map(|p| p.report).unwrap_or_default();
+        obj.insert(
+            "watch".into(),
+            serde_json::json!({
+                "board": watch_json(&status.watch, board_first),
+                "host": watch_json(&host_last, host_first),
+            }),
+        );
         obj.insert(
             "qemu".into(),
             serde_json::json!({
@@ -832,6 +971,34 @@ pub fn write_outputs(a: &Args, r: &Replayed) -> Result<(), String> {
         qemu.wall.as_secs_f64(),
         a.out.display()
     );
+    let board_first = first_flag(qemu.statuses().iter().map(|s| (s.t, s.watch)));
+    let host_first = first_flag(r.host_watch.iter().map(|p| (p.t, p.report)));
+    let flag = |f: Option<(f64, Effect)>| {
+        f.map_or(String::new(), |(t, e)| {
+            format!(", first flagged at {t:.2} s ({})", e.name())
+        })
+    };
+    let w = &status.watch;
+    println!(
+        "  watch (board): {}{}; delay {:+.2} ± {:.2} ms (t² {:.1}) over the last {} s window",
+        verdict_text(w.verdict),
+        flag(board_first),
+        w.delay.estimate * 1e3,
+        w.delay.sigma * 1e3,
+        w.delay.t2,
+        flexcal_core::watch::WINDOW_S
+    );
+    println!(
+        "  watch NIS (vel E N U, att x y z, rate x y z): {:.2?}; lag-1 whiteness: {:.2?}",
+        w.nis, w.whiteness
+    );
+    if let Some(h) = r.host_watch.last() {
+        println!(
+            "  watch (host, same stream): {}{}",
+            verdict_text(h.report.verdict),
+            flag(host_first)
+        );
+    }
     for r in res.final_effects() {
         use crate::report::units::{list, of_effect_unit};
         let u = of_effect_unit(r.effect.unit());

@@ -161,7 +161,8 @@ impl ImuErrors {
 /// The truth columns that are constant in time, by name: the slave IMU's scale
 /// factors (`sg*`, `sa*`), non-orthogonality (`ng*`, `na*`, rad), gyro g-sensitivity
 /// (`gs11`..`gs33` row by row, rad/s per m/s²), the master delay at t = 0 (`tau`, s)
-/// and its rate (`tau_rate`, s/s), and the lever-arm error (`dr*`, m, master body).
+/// and its rate (`tau_rate`, s/s), the lever-arm error (`dr*`, m, master body), and the
+/// delay's onset (`tau_from`, s) when it does not start with the recording.
 fn constant_truth(e: &ImuErrors, und: &Undeclared) -> Vec<(&'static str, f64)> {
     const GS: [&str; 9] = [
         "gs11", "gs12", "gs13", "gs21", "gs22", "gs23", "gs31", "gs32", "gs33",
@@ -178,6 +179,8 @@ fn constant_truth(e: &ImuErrors, und: &Undeclared) -> Vec<(&'static str, f64)> {
             ("tau_rate", und.master_delay_rate),
         ])
         .chain(vec3(["drx", "dry", "drz"], und.lever_arm_error_m))
+        // The delay's onset, when it does not start with the recording (`tau` from then).
+        .chain(und.master_delay_from_s.map(|from| ("tau_from", from)))
         .collect()
 }
 
@@ -228,7 +231,8 @@ fn gauss3(rng: &mut impl Rng, sigma: f64) -> Vector3<f64> {
 /// With `undeclared.master_delay_s` = τ > 0 the master message stamped `t` is the
 /// master truth at `t − τ`, from the closed-form motion (attitude, rate), the
 /// constant velocity, and the position at `t` moved back by `v τ`; with a clock drift
-/// (`master_delay_rate` = τ̇) the delay is `τ + τ̇ t`. The first messages,
+/// (`master_delay_rate` = τ̇) the delay is `τ + τ̇ t`; with `master_delay_from_s` the
+/// messages stamped before that time are on time. The first messages,
 /// whose `t − τ` is negative, are emitted too: the motion is defined for all times.
 pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -292,7 +296,11 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
                            th: &Vector3<f64>,
                            thd: &Vector3<f64>,
                            rng: &mut ChaCha8Rng| {
-        let tau = tau0 + tau_rate * t;
+        let tau = if und.master_delay_from_s.is_some_and(|from| t < from) {
+            0.0
+        } else {
+            tau0 + tau_rate * t
+        };
         let m = sc.motion.attitude(t - tau);
         let pos = earth::offset_position(pos_t, &(-fx.v_m * tau));
         let w_ie = earth::earth_rate_n(pos.lat_rad);

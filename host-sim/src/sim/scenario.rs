@@ -224,6 +224,11 @@ pub struct Undeclared {
     /// `τ(t) = master_delay_s + master_delay_rate * t` (the recording starts at t = 0).
     /// A clock drift (the `clock_drift` effect).
     pub master_delay_rate: f64,
+    /// Time (s, from the recording's start) at which the delay appears, if it does not
+    /// from the start: the messages stamped before it are on time, those from it on are
+    /// late by `master_delay_s + master_delay_rate * t` (a delay that appears in service,
+    /// `docs/diagnosis.md`, "The board watches itself").
+    pub master_delay_from_s: Option<f64>,
     /// Error of the surveyed lever arm, master body frame (m): the true static arm is
     /// `lever_arm.r0_m + lever_arm_error_m`, and the truth (slave velocity, position,
     /// bending matrix R) uses it, while the recording still declares `lever_arm.r0_m`.
@@ -406,6 +411,13 @@ impl Undeclared {
             return Err(format!(
                 "`undeclared.master_delay_rate` must be a number in [-0.01, 0.01] s/s, got {rate}"
             ));
+        }
+        if let Some(from) = self.master_delay_from_s {
+            if !(from.is_finite() && from >= 0.0) {
+                return Err(format!(
+                    "`undeclared.master_delay_from_s` must be a time ≥ 0 s, got {from}"
+                ));
+            }
         }
         if let Some(v) = self.lever_arm_error_m.iter().find(|v| !v.is_finite()) {
             return Err(format!(
