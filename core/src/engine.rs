@@ -1710,18 +1710,26 @@ fn signature<T: Real>(
             Vector3::zeros(),
         ),
     };
-    let v_dot_n = match (slope, e.master_trend.slope()) {
-        (Some(w_dot), Some(a_m)) => augment::carried_acceleration(
-            &a_m,
+    // Until the line spans its window the master's own acceleration is left out, and
+    // until the rates cover theirs the column is zero, as the rate column: the slave's
+    // sensed acceleration there (5 s, 500 messages of a 100 Hz master) gave seed 111 a
+    // delay of +2 ms with the ship still (docs/diagnosis.md "Session 11").
+    let v_dot_n = match (slope, msg.w_ib_bm) {
+        (Some(w_dot), _) => augment::carried_acceleration(
+            &e.master_trend.slope().unwrap_or_else(Vector3::zeros),
             c_bm_n,
             &w_nb_bm,
             w_eb_bm,
             &w_dot,
             &e.cfg.lever_arm_m,
         ),
-        // v̇ = C f + g − (2ω_ie + ω_en) × v, from the sensed force (not from differences
-        // of the snapshots, which closed-loop corrections make jump).
-        _ => c_bs_n * f_bs + here.gravity_n() - (w_ie * T::of(2.0) + w_en).cross(&slave.v_n),
+        (None, Some(_)) => Vector3::zeros(),
+        // A master without rate: v̇ = C f + g − (2ω_ie + ω_en) × v, from the sensed
+        // force (not from differences of the snapshots, which closed-loop corrections
+        // make jump).
+        (None, None) => {
+            c_bs_n * f_bs + here.gravity_n() - (w_ie * T::of(2.0) + w_en).cross(&slave.v_n)
+        }
     };
     Signature {
         c_bm_n: *c_bm_n,
