@@ -462,8 +462,8 @@ pub struct Signature<T: Real> {
     pub lever_v_n: Vector3<T>,
     /// Rate of change of what a delay moves in the velocity matching, the master's
     /// carried velocity `v_m + C_bm^n (ω_eb^bm × r0)`, ENU (m/s²)
-    /// ([`carried_acceleration`]; the engine falls back to the slave's sensed
-    /// acceleration before the master's rates cover their window).
+    /// ([`carried_acceleration`]; zero before the master's rates cover their window,
+    /// the slave's sensed acceleration for a master that gives no rate).
     pub v_dot_n: Vector3<T>,
     /// Slave body rate relative to the navigation frame, slave body (rad/s).
     pub w_nb_bs: Vector3<T>,
