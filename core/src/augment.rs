@@ -21,7 +21,7 @@
 //! | `gyro_misalignment` | `n_g = [xy, xz, yz]` (rad) | gyro measures `(I + N_g) ω`, `N_g` symmetric, zero diagonal | ψ̇ += N_g ω |
 //! | `accel_scale_factor` | `s_a` (3, –) | accelerometer measures `(I + diag s_a) f` | δv̇ += C diag(f) s_a |
 //! | `accel_misalignment` | `n_a` (rad) | as the gyro's, on `f` | δv̇ += C N_a f |
-//! | `time_delay` | `τ` (1, s) | the master message stamped `t` is the master at `t − τ` | z_v += v̇ τ, z_a += ω_nb τ, z_ω += ω̇ τ |
+//! | `time_delay` | `τ` (1, s) | the master message stamped `t` is the master at `t − τ` | z_v += d/dt(v_m + C_bm^n (ω_eb × r0)) τ, z_a += ω_nb τ, z_ω += ω̇ τ |
 //! | `clock_drift` | `[τ₀, τ̇]` (2: s, s/s) | the master message stamped `t` is the master at `t − τ₀ − τ̇ (t − t₀)`, `t₀` the engine's first message | the delay's columns times `[1, t − t₀]` |
 //! | `lever_arm_error` | `δr` (3, m, master body) | the true arm is `r0 + δr` | z_v += C_bm^n [ω_eb×] δr |
 //! | `gyro_g_sensitivity` | `G` (9, rad/s per m/s², row-major) | gyro measures `ω + G f` | ψ̇ += G f |
@@ -460,7 +460,10 @@ pub struct Signature<T: Real> {
     /// The static lever arm's velocity `C_bm^n (ω_eb^bm × r0)`, ENU (m/s): the master's
     /// attitude carries it to the slave, so the master's attitude error moves it.
     pub lever_v_n: Vector3<T>,
-    /// Rate of change of the slave velocity, ENU (m/s²).
+    /// Rate of change of what a delay moves in the velocity matching, the master's
+    /// carried velocity `v_m + C_bm^n (ω_eb^bm × r0)`, ENU (m/s²)
+    /// ([`carried_acceleration`]; zero before the master's rates cover their window,
+    /// the slave's sensed acceleration for a master that gives no rate).
     pub v_dot_n: Vector3<T>,
     /// Slave body rate relative to the navigation frame, slave body (rad/s).
     pub w_nb_bs: Vector3<T>,
@@ -479,6 +482,23 @@ pub struct Signature<T: Real> {
     /// Time of the master message since the clock's reference `t₀`, the engine's first
     /// master message (s): the clock drift's rate column is its delay column times it.
     pub clock_dt: T,
+}
+
+/// The delay's velocity column: the rate of change of the master's carried velocity
+/// `v_m + C_bm^n (ω_eb^bm × r0)`, ENU (m/s²),
+/// `a_m + C_bm^n (ω̇ × r0 + ω_nb^bm × (ω_eb^bm × r0))`, from the master's own acceleration
+/// `a_m` (ENU), its attitude, its rates relative to the navigation frame and the Earth
+/// (master body) and its angular acceleration `w_dot_bm` (master body). What a delay
+/// moves, and none of the slave's flexure (docs/diagnosis.md, "Session 11").
+pub fn carried_acceleration<T: Real>(
+    a_m_n: &Vector3<T>,
+    c_bm_n: &Matrix3<T>,
+    w_nb_bm: &Vector3<T>,
+    w_eb_bm: &Vector3<T>,
+    w_dot_bm: &Vector3<T>,
+    r0: &Vector3<T>,
+) -> Vector3<T> {
+    a_m_n + c_bm_n * (w_dot_bm.cross(r0) + w_nb_bm.cross(&w_eb_bm.cross(r0)))
 }
 
 /// Which matching measurement a row belongs to.

@@ -350,6 +350,8 @@ pub struct Engine<T: Real, const S: usize = N> {
     frozen: bool,
     /// The master's last angular rates `(t, ω_ib^bm)` (for the delay's rate column).
     past_master_rates: Deque<(f64, Vector3<T>), RATE_HISTORY>,
+    /// The master's own acceleration from its past velocities (the delay's velocity column).
+    master_trend: VelocityTrend<T>,
 }
 
 /// The delay estimate is fed back once its σ is below this (s).
@@ -364,6 +366,82 @@ pub const RATE_WINDOW_S: f64 = 0.645;
 
 /// Fewest master rates in `RATE_WINDOW_S` for the rate column (a parabola needs three).
 pub const RATE_MIN: usize = 5;
+
+/// Time constant of the exponential weights of the line through the master's past
+/// velocities whose slope is the master's own acceleration in the delay's velocity
+/// column (s): long against the increments of the master's smooth velocity error, which
+/// a 0.645 s parabola's slope carried into a spurious delay (docs/diagnosis.md,
+/// "Session 11"). The slope is used once the velocities span this long.
+pub const MASTER_ACCEL_WINDOW_S: f64 = 5.0;
+
+/// The master's velocities further apart than this (s) restart the line.
+const MASTER_ACCEL_GAP_S: f64 = 1.0;
+
+/// An exponentially weighted least-squares line through the master's past velocities
+/// (time constant `MASTER_ACCEL_WINDOW_S`), kept as its weighted sums in `u = t − t_last`
+/// and in the velocities less the first one (the constant part, which would cancel in
+/// the slope, left out for `f32`): its slope is the master's own acceleration.
+#[derive(Clone, Copy, Debug)]
+struct VelocityTrend<T: Real> {
+    /// Stamps of the first and the last velocity in the sums (none: `s0` = 0).
+    t_first: f64,
+    t_last: f64,
+    /// The first velocity, ENU (m/s).
+    v_ref: Vector3<T>,
+    /// Σw, Σw u, Σw u²; Σw (v − v_ref), Σw u (v − v_ref).
+    s0: T,
+    s1: T,
+    s2: T,
+    sv: Vector3<T>,
+    suv: Vector3<T>,
+}
+
+impl<T: Real> VelocityTrend<T> {
+    fn new() -> Self {
+        Self {
+            t_first: 0.0,
+            t_last: 0.0,
+            v_ref: Vector3::zeros(),
+            s0: T::zero(),
+            s1: T::zero(),
+            s2: T::zero(),
+            sv: Vector3::zeros(),
+            suv: Vector3::zeros(),
+        }
+    }
+
+    /// Adds the master's velocity `v` (ENU) stamped `t`.
+    fn push(&mut self, t: f64, v: &Vector3<T>) {
+        let dt = t - self.t_last;
+        if self.s0 <= T::zero() || !(dt > 0.0 && dt <= MASTER_ACCEL_GAP_S) {
+            *self = Self::new();
+            self.t_first = t;
+            self.v_ref = *v;
+        } else {
+            // Every sum aged by 1 / (1 + d/T) (e^{−d/T} to first order, d ≪ T) and moved
+            // to the new origin u → u − d.
+            let d = T::of(dt);
+            let w = T::one() / (T::one() + T::of(dt / MASTER_ACCEL_WINDOW_S));
+            self.s2 = w * (self.s2 - T::of(2.0) * d * self.s1 + d * d * self.s0);
+            self.s1 = w * (self.s1 - d * self.s0);
+            self.s0 *= w;
+            self.suv = (self.suv - self.sv * d) * w;
+            self.sv *= w;
+        }
+        self.t_last = t;
+        self.s0 += T::one();
+        self.sv += v - self.v_ref;
+    }
+
+    /// The line's slope (m/s², ENU), once its velocities span `MASTER_ACCEL_WINDOW_S`.
+    fn slope(&self) -> Option<Vector3<T>> {
+        let det = self.s0 * self.s2 - self.s1 * self.s1;
+        if self.t_last - self.t_first < MASTER_ACCEL_WINDOW_S || det <= T::zero() {
+            return None;
+        }
+        Some((self.suv * self.s0 - self.sv * self.s1) / det)
+    }
+}
 
 /// Largest master delay the engine follows (s): within the alignment buffer's reach.
 pub const MAX_DELAY_S: f64 = 0.25;
@@ -439,6 +517,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             delay_rate: 0.0,
             clock_t0: None,
             past_master_rates: Deque::new(),
+            master_trend: VelocityTrend::new(),
             frozen: false,
             cfg,
         }
@@ -482,6 +561,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         self.delay_rate = 0.0;
         self.clock_t0 = None;
         self.past_master_rates.clear();
+        self.master_trend = VelocityTrend::new();
         self.frozen = false;
         self.cfg = cfg;
         Ok(())
@@ -1082,13 +1162,14 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 t: msg.t,
                 q_bm_n: msg.q_bm_n,
             });
-            // Kept only for the delay's rate column.
+            // Kept only for the delay's rate and velocity columns.
             let keep = self.has_delay();
             if let Some(w) = msg.w_ib_bm.filter(|_| keep) {
                 if self.past_master_rates.is_full() {
                     let _ = self.past_master_rates.pop_front();
                 }
                 let _ = self.past_master_rates.push_back((msg.t, w));
+                self.master_trend.push(msg.t, &msg.v_n);
             }
         }
         None
@@ -1239,6 +1320,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             misalignment: self.misalignment,
             prev_master: self.prev_master,
             past_master_rates: &self.past_master_rates,
+            master_trend: &self.master_trend,
             has_delay: self.has_delay(),
             clock_dt: self.clock_dt(msg.t),
         };
@@ -1334,6 +1416,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         self.epoch = None;
         self.gated_streaks = [0; 3];
         self.past_master_rates.clear();
+        self.master_trend = VelocityTrend::new();
         self.counters.resets += 1;
     }
 
@@ -1396,6 +1479,7 @@ struct Nominal<'a, T: Real> {
     misalignment: Vector3<T>,
     prev_master: Option<PrevMaster<T>>,
     past_master_rates: &'a Deque<(f64, Vector3<T>), RATE_HISTORY>,
+    master_trend: &'a VelocityTrend<T>,
     /// Whether the layout carries the master delay (`Engine::has_delay`).
     has_delay: bool,
     /// The message's time since the clock's reference t₀ (s; `Engine::clock_dt`).
@@ -1605,24 +1689,48 @@ fn signature<T: Real>(
     // noise biases through the flexure states, hence a long window). For a master
     // that gives no rate (a rate from attitude differences would carry the current
     // attitude noise), or before the window is covered, the slave's rate. The
-    // velocity column stays the slave's sensed acceleration: the master's velocity
-    // carries its own smooth error, whose white increments bias it the same way.
+    // velocity column likewise: the slave's sensed acceleration carries the bending
+    // arm's R θ̈ of the moment (+3.4 ms on the same draw through velocity alone), so it
+    // is the rate of change of the master's carried velocity, its lever-arm part from
+    // the master's rates and angular acceleration, the master's own acceleration from
+    // a line through its past velocities weighted over `MASTER_ACCEL_WINDOW_S` (the
+    // master's smooth error's increments, which a short window's slope carries, biased
+    // it the other way: docs/diagnosis.md "Session 11").
     let m_bs = exp_so3(&e.misalignment).transpose();
     let slope = if e.has_delay {
         master_rate_slope(e.past_master_rates, e.cfg.filter_period_s, msg.t)
     } else {
         None
     };
+    let w_nb_bm = w_eb_bm - c_bm_n.transpose() * w_en;
     let (w_nb_bs, w_dot_bs) = match slope {
-        Some(w_dot) => (m_bs * (w_eb_bm - c_bm_n.transpose() * w_en), m_bs * w_dot),
+        Some(w_dot) => (m_bs * w_nb_bm, m_bs * w_dot),
         None => (
             w_ib_bs - c_bs_n.transpose() * (w_ie + w_en),
             Vector3::zeros(),
         ),
     };
-    // v̇ = C f + g − (2ω_ie + ω_en) × v, from the sensed force (not from differences
-    // of the snapshots, which closed-loop corrections make jump).
-    let v_dot_n = c_bs_n * f_bs + here.gravity_n() - (w_ie * T::of(2.0) + w_en).cross(&slave.v_n);
+    // Until the line spans its window the master's own acceleration is left out, and
+    // until the rates cover theirs the column is zero, as the rate column: the slave's
+    // sensed acceleration there (5 s, 500 messages of a 100 Hz master) gave seed 111 a
+    // delay of +2 ms with the ship still (docs/diagnosis.md "Session 11").
+    let v_dot_n = match (slope, msg.w_ib_bm) {
+        (Some(w_dot), _) => augment::carried_acceleration(
+            &e.master_trend.slope().unwrap_or_else(Vector3::zeros),
+            c_bm_n,
+            &w_nb_bm,
+            w_eb_bm,
+            &w_dot,
+            &e.cfg.lever_arm_m,
+        ),
+        (None, Some(_)) => Vector3::zeros(),
+        // A master without rate: v̇ = C f + g − (2ω_ie + ω_en) × v, from the sensed
+        // force (not from differences of the snapshots, which closed-loop corrections
+        // make jump).
+        (None, None) => {
+            c_bs_n * f_bs + here.gravity_n() - (w_ie * T::of(2.0) + w_en).cross(&slave.v_n)
+        }
+    };
     Signature {
         c_bm_n: *c_bm_n,
         w_eb_bm: *w_eb_bm,
