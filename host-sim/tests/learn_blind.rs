@@ -8,7 +8,7 @@ use flexcal_core::stats::chi2_quantile;
 use flexcal_sim::calib::run::{run, Precision};
 use flexcal_sim::calib::score::score;
 use flexcal_sim::learn::params::{ModelParams, Param};
-use flexcal_sim::learn::truth::param_errors;
+use flexcal_sim::learn::truth::{param_errors, Quantity};
 use flexcal_sim::learn::{default_start, learn, start_from_nothing, LearnOptions, Learned};
 use flexcal_sim::recording::Recording;
 use flexcal_sim::sim::{blind, simulate, Scenario};
@@ -80,7 +80,7 @@ fn learned_model_calibrates_blind_recordings_consistently() {
             default_over += 1;
         }
         for e in param_errors(&ModelParams::from_config(&l.learned_config), &l.values, &sc) {
-            if let Param::FlexureOmega(_) = e.param {
+            if let Quantity::Learned(Param::FlexureOmega(_)) = e.param {
                 omega_errors.push(e.relative_error.abs());
             }
         }

@@ -172,9 +172,8 @@ pub fn learn(
         (Some(a), Some(b)) if b.t > a.t => b.t - a.t,
         _ => return Err("the recording has too few master messages to learn a model".into()),
     };
-    let mut model = ModelParams::from_config(&start);
-    model.velocity_floor_mps =
-        params::velocity_resolution_floor(rec.master.iter().map(|m| m.v_n_mps));
+    let mut model = ModelParams::from_config(start);
+    model.velocity_floor_mps = params::velocity_noise_floor(rec.master.iter().map(|m| m.v_n_mps));
     let mut s = Search::new(&win, model)?;
     let neg2ll_start = s.current.total;
     let m = start.matching_flags();

@@ -57,6 +57,28 @@ pub const DEFAULT_FLEXURE: FlexureAxis = FlexureAxis {
     sigma_rad: 2.908_882_086_657_216e-4,
 };
 
+/// The floor of the master's white velocity noise on the horizontal axes (m/s), kept
+/// above the f32 resolution: horizontal velocity is where the tilt and the horizontal
+/// accelerometer biases meet, the direction in which the filter handed its own truth is
+/// already overconfident (session 10: accelerometer y against misalignment x, 2.04
+/// against 1). Floored at the resolution on every axis (blind Monte Carlo, 50 × 600 s,
+/// docs/model-learning.md session 11) the noiseless and smooth masters' NIS came to 1
+/// (velocity in band 38–46 % → 68–72 % of runs) but that direction's RMS/σ rose 1.22 →
+/// 1.38 and the mean NEES 9.95 → 10.34 (seeds 12 and 41: 8.0 → 32.4, 8.8 → 19.2).
+pub const HORIZONTAL_VELOCITY_FLOOR_MPS: f64 = 1e-3;
+
+/// The floor of the master's white velocity noise on each ENU axis (m/s): on the
+/// vertical the f32 resolution of the velocities compared ([`velocity_resolution_floor`]),
+/// horizontally at least [`HORIZONTAL_VELOCITY_FLOOR_MPS`].
+pub fn velocity_noise_floor(master_v_n_mps: impl Iterator<Item = [f64; 3]>) -> [f64; 3] {
+    let [e, n, u] = velocity_resolution_floor(master_v_n_mps);
+    [
+        e.max(HORIZONTAL_VELOCITY_FLOOR_MPS),
+        n.max(HORIZONTAL_VELOCITY_FLOOR_MPS),
+        u,
+    ]
+}
+
 /// The f32 resolution of the velocities the board compares on each ENU axis (m/s): a
 /// velocity held in f32 is rounded to within half a unit in the last place of its size,
 /// a uniform error of σ = ulp/√12, and the matching subtracts two of them (the master's
@@ -182,12 +204,14 @@ impl Param {
     pub fn bounds(&self) -> (f64, f64) {
         match self {
             // Floors, per axis: a noiseless or smooth master must not drive the matching
-            // noise to zero. Velocity: the board's f32 resolution of the velocities it
-            // compares, from the recording ([`ModelParams::velocity_floor_mps`]), never
-            // below 1e-8 m/s. Until session 11 it was 1 mm/s, above what a noiseless
-            // master's velocity innovations hold (a 50 Hz master and a 7e-6 m/s/√s
-            // accelerometer: 1e-6 m/s between messages): it held their vertical NIS at
-            // 0.02–0.3 and hid the velocity random walk (blind seed 14: 7× too large).
+            // noise to zero. Velocity, per axis from the recording
+            // ([`ModelParams::velocity_floor_mps`], [`velocity_noise_floor`]): vertically
+            // the board's f32 resolution of the velocities it compares (never below 1e-8
+            // m/s), horizontally 1 mm/s. Until session 11 the vertical floor was 1 mm/s
+            // too, above what a noiseless master's velocity innovations hold (a 50 Hz
+            // master and a 7e-6 m/s/√s accelerometer: 1e-6 m/s between messages): it held
+            // their vertical NIS at 0.02–0.3 and hid the velocity random walk (blind seed
+            // 14: 7× too large).
             // Attitude 2 µrad ≈ 0.4″: at the f32 resolution instead (1e-7 rad) the
             // noiseless masters' attitude NIS come to 1, but on the measured vehicle
             // recording the heading noise falls to that floor and the search then takes
@@ -416,6 +440,16 @@ mod tests {
             "{f:?}"
         );
         assert_eq!(f[2], Param::VelocityNoise(2).bounds().0);
+        // The learner's floor keeps the horizontal axes at 1 mm/s.
+        let g = velocity_noise_floor([[8.0, -0.5, 0.0]].into_iter());
+        assert_eq!(
+            g,
+            [
+                HORIZONTAL_VELOCITY_FLOOR_MPS,
+                HORIZONTAL_VELOCITY_FLOOR_MPS,
+                f[2]
+            ]
+        );
         // The search keeps each axis at or above its own floor.
         let mut m = ModelParams::from_config(&CalibConfig::default());
         m.velocity_floor_mps = f;
