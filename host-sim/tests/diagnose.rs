@@ -254,6 +254,33 @@ fn a_master_delay_is_found_on_a_blind_recording_with_the_model_learned_from_it()
     );
 }
 
+/// Blind draw 107 (300 s, no delay) calibrated with its own model and the delay asked
+/// for, matched on `matching`: the delay's estimate and σ (s).
+fn declared_delay_on_draw_107(matching: &[&str]) -> (f64, f64) {
+    use flexcal_sim::calib::run::{run as calibrate, Precision};
+    use flexcal_sim::sim::blind::draw;
+    let seed = 107;
+    let sc = draw(seed, 300.0, None);
+    let rec = simulate(&sc, seed).recording;
+    let mut cfg = CalibConfig::declared_for(&sc, 1.0 / sc.master.rate_hz);
+    cfg.matching = matching.iter().map(|c| c.to_string()).collect();
+    cfg.effects = vec![Effect::TimeDelay.name().to_string()];
+    cfg.mounting_estimate_rad = Some(sc.misalignment_deg.map(f64::to_radians));
+    let res = calibrate(&rec, &cfg, Precision::F64).expect("calibrate");
+    let e = res
+        .final_effects()
+        .into_iter()
+        .find(|e| e.effect == Effect::TimeDelay)
+        .expect("the delay block");
+    let (tau, sigma) = (e.value[0], e.sigma[0]);
+    eprintln!(
+        "{matching:?}: delay {:.4} ± {:.4} ms",
+        tau * 1e3,
+        sigma * 1e3
+    );
+    (tau, sigma)
+}
+
 /// A delay column must hold what a delay moves and nothing the current innovation
 /// carries. The slave's own gyro also senses its flexure; built from it, the attitude
 /// column of `time_delay` carried the flexure's rate of the moment, which the filter has
@@ -267,29 +294,9 @@ fn a_master_delay_is_found_on_a_blind_recording_with_the_model_learned_from_it()
 /// 0.11 ms. The velocity column has its own test below.
 #[test]
 fn a_flexing_slave_shows_no_master_delay_through_attitude_and_rate_given_the_declared_model() {
-    use flexcal_sim::calib::run::{run as calibrate, Precision};
-    use flexcal_sim::sim::blind::draw;
-    let seed = 107;
-    let sc = draw(seed, 300.0, None);
-    let rec = simulate(&sc, seed).recording;
     let mut failures = Vec::new();
     for matching in [&["attitude"][..], &["attitude", "angular_rate"][..]] {
-        let mut cfg = CalibConfig::declared_for(&sc, 1.0 / sc.master.rate_hz);
-        cfg.matching = matching.iter().map(|c| c.to_string()).collect();
-        cfg.effects = vec![Effect::TimeDelay.name().to_string()];
-        cfg.mounting_estimate_rad = Some(sc.misalignment_deg.map(f64::to_radians));
-        let res = calibrate(&rec, &cfg, Precision::F64).expect("calibrate");
-        let e = res
-            .final_effects()
-            .into_iter()
-            .find(|e| e.effect == Effect::TimeDelay)
-            .expect("the delay block");
-        let (tau, sigma) = (e.value[0], e.sigma[0]);
-        eprintln!(
-            "{matching:?}: delay {:.4} ± {:.4} ms",
-            tau * 1e3,
-            sigma * 1e3
-        );
+        let (tau, sigma) = declared_delay_on_draw_107(matching);
         if tau.abs() > 3.0 * sigma {
             failures.push((matching, tau, sigma));
         }
@@ -306,22 +313,6 @@ fn a_flexing_slave_shows_no_master_delay_through_attitude_and_rate_given_the_dec
 /// (the slave's acceleration in the column: +3.43 ± 0.07 ms, 50σ).
 #[test]
 fn a_flexing_slave_shows_no_master_delay_through_velocity_given_the_declared_model() {
-    use flexcal_sim::calib::run::{run as calibrate, Precision};
-    use flexcal_sim::sim::blind::draw;
-    let seed = 107;
-    let sc = draw(seed, 300.0, None);
-    let rec = simulate(&sc, seed).recording;
-    let mut cfg = CalibConfig::declared_for(&sc, 1.0 / sc.master.rate_hz);
-    cfg.matching = vec!["velocity".to_string()];
-    cfg.effects = vec![Effect::TimeDelay.name().to_string()];
-    cfg.mounting_estimate_rad = Some(sc.misalignment_deg.map(f64::to_radians));
-    let res = calibrate(&rec, &cfg, Precision::F64).expect("calibrate");
-    let e = res
-        .final_effects()
-        .into_iter()
-        .find(|e| e.effect == Effect::TimeDelay)
-        .expect("the delay block");
-    let (tau, sigma) = (e.value[0], e.sigma[0]);
-    eprintln!("velocity: delay {:.4} ± {:.4} ms", tau * 1e3, sigma * 1e3);
+    let (tau, sigma) = declared_delay_on_draw_107(&["velocity"]);
     assert!(tau.abs() <= 3.0 * sigma, "delay {tau} s ± {sigma} s");
 }
