@@ -59,10 +59,10 @@ def ends_block(mn, ops):
         mn.startswith('ldr') and ops.strip().startswith('pc'))
 
 
-def read_log(path):
-    """Executions per block start, and the blocks' instruction addresses where `in_asm`
-    printed them."""
-    runs, blocks, current = collections.Counter(), {}, None
+def read_log_in_order(path):
+    """The block starts in the order QEMU executed them, and the blocks' instruction
+    addresses where `in_asm` printed them."""
+    order, blocks, current = [], {}, None
     for line in open(path):
         if line.startswith('IN:'):
             current = []
@@ -76,10 +76,17 @@ def read_log(path):
         current = None
         m = re.search(r'\[[0-9a-f]+/([0-9a-f]+)/', line)
         if m:
-            runs[int(m.group(1), 16)] += 1
+            order.append(int(m.group(1), 16))
     if current:
         blocks[current[0]] = current
-    return runs, blocks
+    return order, blocks
+
+
+def read_log(path):
+    """Executions per block start, and the blocks' instruction addresses where `in_asm`
+    printed them."""
+    order, blocks = read_log_in_order(path)
+    return collections.Counter(order), blocks
 
 
 def main():

@@ -43,21 +43,7 @@ def main():
     def is_mem(f):
         return f.startswith('__aeabi_mem') or 'compiler_builtins::mem' in f or f in ('memcpy', 'memset')
 
-    blocks, current, order = {}, None, []
-    for line in open(log):
-        if line.startswith('IN:'):
-            current = []
-            continue
-        m = re.match(r'^0x([0-9a-f]{8}):\s', line)
-        if m and current is not None:
-            current.append(int(m.group(1), 16))
-            continue
-        if current:
-            blocks[current[0]] = current
-        current = None
-        m = re.search(r'\[[0-9a-f]+/([0-9a-f]+)/', line)
-        if m:
-            order.append(int(m.group(1), 16))
+    order, blocks = ep.read_log_in_order(log)
     cost, calls = collections.Counter(), collections.Counter()
     prev, site = None, None
     for pc in order:

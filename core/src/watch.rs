@@ -54,13 +54,12 @@
 //! in `docs/diagnosis.md`). The scalar updates are sequential: the columns of the second
 //! and third axis of a channel are not corrected for the first axis's update either.
 //!
-//! Columns, as `augment.rs` builds them in the engine's `signature`, except velocity: the
-//! engine's is the slave's sensed acceleration, which the board's application does not
-//! see; here it is the master's prediction of the slave's velocity, `v_m + C_bm^n (ω_eb ×
-//! r0)`, differentiated: `C_bm^n (ω̇ × r0 + ω × (ω × r0))` with the configured lever arm
-//! `r0` (the bending of the arm and the master's own acceleration `v̇_m` are left out: a
-//! ship's is small against the arm's, and from velocity differences it would carry the
-//! master's velocity noise, 0.7 m/s² at 100 Hz for 1 cm/s); attitude
+//! Columns, as `augment.rs` builds them in the engine's `signature`. Velocity: the
+//! master's carried velocity `v_m + C_bm^n (ω_eb × r0)` differentiated
+//! ([`augment::carried_acceleration`]), `C_bm^n (ω̇ × r0 + ω × (ω × r0))` with the
+//! configured lever arm `r0`, without the master's own acceleration `a_m` that the engine
+//! fits over 5 s (a ship's is small against the arm's) and with the transport rate left
+//! out of `ω_nb` (below); attitude
 //! `Exp(μ₀)ᵀ (ω_ib^bm − C_bm^nᵀ ω_ie^n)` (the master's rate relative to the Earth in the
 //! slave body; the transport rate, under 10⁻⁶ rad/s at ship speeds, is left out; `μ₀` the
 //! configured mounting, not the running estimate), rate `Exp(μ₀)ᵀ ω̇_bm` from the master
@@ -70,7 +69,7 @@
 //!
 //! No heap, no panic, fixed size (about 0.6 kB in `f32`).
 
-use crate::augment::Effect;
+use crate::augment::{self, Effect};
 use crate::earth;
 use crate::engine::{EngineConfig, MasterNav, MatchReport};
 use crate::kalman::ScalarUpdate;
@@ -159,7 +158,7 @@ struct Columns<T: Real> {
     /// The message's time of validity (s).
     t: f64,
     /// Velocity column: the rate of change of the lever arm's velocity
-    /// `C_bm^n (ω̇ × r0 + ω × (ω × r0))`, ENU (m/s²).
+    /// `C_bm^n (ω̇ × r0 + ω × (ω × r0))`, ENU (m/s²) ([`augment::carried_acceleration`]).
     velocity: Vector3<T>,
     /// Attitude column: the master's rate relative to the Earth, slave body (rad/s).
     attitude: Vector3<T>,
@@ -284,12 +283,17 @@ impl<T: Real> Watch<T> {
             }
             _ => Vector3::zeros(),
         };
-        let r0 = &self.lever_arm_m;
-        let lever_acc = w_dot_bm.cross(r0) + w_eb_bm.cross(&w_eb_bm.cross(r0));
         if let Some(slot) = self.ring.get_mut(self.next) {
             *slot = Columns {
                 t: m.t,
-                velocity: c_bm_n * lever_acc,
+                velocity: augment::carried_acceleration(
+                    &Vector3::zeros(),
+                    &c_bm_n,
+                    &w_eb_bm,
+                    &w_eb_bm,
+                    &w_dot_bm,
+                    &self.lever_arm_m,
+                ),
                 attitude: self.bm_to_bs * w_eb_bm,
                 rate: self.bm_to_bs * w_dot_bm,
             };

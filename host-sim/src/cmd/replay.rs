@@ -273,26 +273,25 @@ impl QemuRun {
             .collect()
     }
 
+    /// The messages received that `pick` takes, in order.
+    fn received_of<M>(&self, pick: impl Fn(&Message) -> Option<M>) -> Vec<M> {
+        self.received.iter().filter_map(pick).collect()
+    }
+
     /// The Estimates messages received.
     pub fn estimates(&self) -> Vec<EstimatesMsg> {
-        self.received
-            .iter()
-            .filter_map(|m| match m {
-                Message::Estimates(e) => Some(*e),
-                _ => None,
-            })
-            .collect()
+        self.received_of(|m| match m {
+            Message::Estimates(e) => Some(*e),
+            _ => None,
+        })
     }
 
     /// The Effects messages received.
     pub fn effects(&self) -> Vec<EffectsMsg> {
-        self.received
-            .iter()
-            .filter_map(|m| match m {
-                Message::Effects(e) => Some(*e),
-                _ => None,
-            })
-            .collect()
+        self.received_of(|m| match m {
+            Message::Effects(e) => Some(*e),
+            _ => None,
+        })
     }
 
     /// The last Status message received.
@@ -302,13 +301,10 @@ impl QemuRun {
 
     /// Every Status message received, in order.
     pub fn statuses(&self) -> Vec<StatusMsg> {
-        self.received
-            .iter()
-            .filter_map(|m| match m {
-                Message::Status(s) => Some(*s),
-                _ => None,
-            })
-            .collect()
+        self.received_of(|m| match m {
+            Message::Status(s) => Some(*s),
+            _ => None,
+        })
     }
 }
 
