@@ -19,6 +19,7 @@ use crate::rotation::{
     dcm, exp_so3, inverse_right_jacobian_small, nlerp, quat_exp, quat_log, right_jacobian,
 };
 use crate::strapdown::{Increments, NavState, Strapdown};
+use crate::tilt_bias;
 use heapless::{Deque, Vec};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
@@ -1082,6 +1083,9 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 self.kf.decay(i, decay);
             }
             self.kf.predict(&phi, &q);
+            if !self.frozen {
+                floor_tilt_bias_product(&mut self.kf, &means.f_b);
+            }
         }
         self.counters.predictions += 1;
         // The next epoch; after a gap, restart the grid from this sample.
@@ -1462,6 +1466,24 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 self.kf.reset_states(o..o + 2);
             }
         }
+    }
+}
+
+/// Raises the accelerometer bias's variance along its sharpest direction to the floor
+/// the tilt–bias product sets ([`tilt_bias::floor`]) where the filter claims less: the
+/// velocity's second-order error that Φ leaves out, `½|∇⊥|²/|f|` along the specific
+/// force, is that large whatever the vertical velocity says. `f_b`: the period's mean
+/// specific force (m/s², slave body). A rank-one addition to the factors; nothing when
+/// the floor does not bind (a ship whose motion parts the tilt from the biases).
+fn floor_tilt_bias_product<T: Real, const S: usize>(kf: &mut Kalman<T, S>, f_b: &Vector3<T>) {
+    let p_ba = Matrix3::from_fn(|j, k| kf.cov(BA + j, BA + k));
+    let Some(fl) = tilt_bias::floor(&p_ba, f_b.norm()) else {
+        return;
+    };
+    let u = fl.direction_b;
+    let c = [(BA, u.x), (BA + 1, u.y), (BA + 2, u.z)];
+    if let Some(v) = kf.variance_along(&c).filter(|&v| v < fl.variance) {
+        kf.add_rank_one(&c, fl.variance - v);
     }
 }
 

@@ -1129,6 +1129,82 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         }
     }
 
+    /// A vector given by its non-zeros `(state, value)`, in the internal order, each
+    /// element times `by`'s at its position (`scale` for a row that multiplies the
+    /// state, `cᵀ x = (S c)ᵀ x_s`; `inv_scale` for a covariance's column, `P_s = S⁻¹ P S⁻¹`);
+    /// `None` if a state is out of range.
+    fn internal_vector(c: &[(usize, T)], pos: &[u8; N], by: &SVector<T, N>) -> Option<[T; N]> {
+        let mut v = [T::zero(); N];
+        for &(i, ci) in c {
+            let a = usize::from(*pos.get(i)?);
+            *v.get_mut(a)? += ci * *by.get(a)?;
+        }
+        Some(v)
+    }
+
+    /// `cᵀ P c` (physical units; `c` by its non-zeros `(state, value)`), from the factors
+    /// as `Σ_k D_k (Uᵀ c)_k²`: a variance far below the states' own (a combination the
+    /// data fix much better than its parts) without the cancellation of forming `P`.
+    /// `None` if a state is out of range.
+    pub fn variance_along(&self, c: &[(usize, T)]) -> Option<T> {
+        let v = Self::internal_vector(c, &self.pos, &self.scale)?;
+        // (Uᵀ v)_k = Σ_{lo ≤ i ≤ k} U(i, k) v_i (U(k, k) = 1), zero before v's first
+        // non-zero `lo` (a bias block sits among the static states, last).
+        let lo = v.iter().position(|&x| x != T::zero()).unwrap_or(N);
+        let u = self.u.as_slice();
+        let mut acc = T::zero();
+        for (k, &dk) in self.d.iter().enumerate().skip(lo) {
+            let mut f = T::zero();
+            for (i, &vi) in v.iter().enumerate().take(k + 1).skip(lo) {
+                f += if i == k {
+                    vi
+                } else {
+                    u.get(i * N + k).copied().unwrap_or_else(T::zero) * vi
+                };
+            }
+            acc += dk * f * f;
+        }
+        Some(acc)
+    }
+
+    /// `P ← P + α c cᵀ` (physical units; `c` by its non-zeros `(state, value)`, `α ≥ 0`)
+    /// in the factors, by Agee and Turner's rank-one update (Bierman, *Factorization
+    /// Methods for Discrete Sequential Estimation*, 1977, ch. V): from the last internal
+    /// position down, each `D_j` takes its share of `α` and the column of U above it the
+    /// part of `c` it leaves; positions above the highest non-zero are untouched. The
+    /// state estimate does not change. A negative or non-finite `α`, or a state out of
+    /// range, is refused (counted as non-finite).
+    pub fn add_rank_one(&mut self, c: &[(usize, T)], alpha: T) {
+        let v = Self::internal_vector(c, &self.pos, &self.inv_scale);
+        let Some(mut v) = v.filter(|_| alpha >= T::zero() && alpha.is_finite()) else {
+            self.health.non_finite += 1;
+            return;
+        };
+        let mut a = alpha;
+        let (u, d) = (self.u.as_mut_slice(), self.d.as_mut_slice());
+        for j in (0..N).rev() {
+            let s = v.get(j).copied().unwrap_or_else(T::zero);
+            let Some(dj) = d.get_mut(j) else { continue };
+            if s == T::zero() {
+                continue;
+            }
+            let dn = *dj + a * s * s;
+            let positive = dn > T::zero() && dn.is_finite();
+            if !positive {
+                continue;
+            }
+            let b = a * s / dn;
+            a = a * *dj / dn;
+            *dj = dn;
+            for (i, vi) in v.iter_mut().enumerate().take(j) {
+                if let Some(uij) = u.get_mut(i * N + j) {
+                    *vi -= s * *uij;
+                    *uij += b * *vi;
+                }
+            }
+        }
+    }
+
     /// Time update `x ← Φ x`, `P ← Φ P Φᵀ + Q` (physical-unit Φ and Q), in the factors:
     /// `W = [Φ U | U_Q]` with the weights `diag(D, D_Q)` orthogonalized row by row
     /// (Thornton's modified weighted Gram-Schmidt) gives the new `U` and `D`. Φ U is
@@ -1758,6 +1834,51 @@ mod tests {
             kf.predict(&phi, &q);
         }
         same(&last, &plain);
+    }
+
+    #[test]
+    fn rank_one_addition_equals_the_dense_sum() {
+        // Static states held last (internal order differs from the caller's), a scaled
+        // filter after an update, and c touching a static and a dynamic state.
+        let mut kf = Kalman::<f64, 9>::unstarted(1e-12);
+        restart_nine(&mut kf, |i| matches!(i, 2 | 3 | 6), (1, 4));
+        let h =
+            SVector::<f64, 9>::from_column_slice(&[1.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.3, 1.0, 0.0]);
+        kf.update_scalar(&h, 1.0, 0.5, 1e6);
+        let (x, p) = (kf.state(), kf.covariance());
+        let c = [(3, 0.8), (6, -0.6), (1, 0.25)];
+        let cv =
+            SVector::<f64, 9>::from_fn(|i, _| c.iter().filter(|e| e.0 == i).map(|e| e.1).sum());
+        let along = kf.variance_along(&c).unwrap();
+        assert!((along - (cv.transpose() * p * cv)[0]).abs() < 1e-12 * p.norm());
+        kf.add_rank_one(&c, 0.37);
+        let want = p + cv * cv.transpose() * 0.37;
+        assert!(
+            (kf.covariance() - want).norm() < 1e-12 * want.norm(),
+            "{}",
+            kf.covariance()
+        );
+        assert_eq!(kf.state(), x);
+        assert_eq!(kf.health.non_finite, 0);
+        kf.add_rank_one(&c, -1.0);
+        kf.add_rank_one(&[(9, 1.0)], 1.0);
+        assert_eq!(kf.health.non_finite, 2);
+        assert!((kf.covariance() - want).norm() < 1e-12 * want.norm());
+    }
+
+    #[test]
+    fn variance_along_a_sharp_combination_keeps_its_precision_in_f32() {
+        // Two states known to 1e-2 apart and their difference to 1e-6 (a ratio of 1e-8,
+        // below f32's ε of P's elements): the factors give the difference's variance.
+        let p0 = Matrix2::new(1e-4, 0.0, 0.0, 1e-4);
+        let mut kf = Kalman::<f32, 2>::new(&p0, 1e-30);
+        kf.update_scalar(&Vector2::new(1.0, -1.0), 0.0, 1e-12, 1e6);
+        let v = kf.variance_along(&[(0, 1.0), (1, -1.0)]).unwrap();
+        assert!((v / 1e-12 - 1.0).abs() < 1e-3, "{v}");
+        // |c|⁴ = 4: the difference's variance grows by 4 α.
+        kf.add_rank_one(&[(0, 1.0), (1, -1.0)], 3e-12);
+        let v = kf.variance_along(&[(0, 1.0), (1, -1.0)]).unwrap();
+        assert!((v / 13e-12 - 1.0).abs() < 1e-3, "{v}");
     }
 
     #[test]

@@ -31,4 +31,5 @@ pub mod real;
 pub mod rotation;
 pub mod stats;
 pub mod strapdown;
+pub mod tilt_bias;
 pub mod watch;
