@@ -1345,8 +1345,24 @@ impl<T: Real, const S: usize> Engine<T, S> {
                     }
                 }
             }
+            // The rows' candidate columns: the declared blocks' (θ̇'s too when the lag
+            // moves θ's into them), then every augmented one.
+            let three = |o: usize| {
+                u32::try_from(o)
+                    .ok()
+                    .and_then(|o| 0b111u32.checked_shl(o))
+                    .unwrap_or(0)
+            };
+            let mut declared = 0;
+            for (offset, _) in &c.blocks {
+                declared |= three(*offset);
+            }
+            if lag != T::zero() {
+                declared |= three(THD);
+            }
+            let cols = (declared, N);
             let gate = engine.cfg.gate_sigma;
-            engine.update3(&rows, &c.z, c.r, gate, out.insert([unused(); 3]));
+            engine.update3(&rows, cols, &c.z, c.r, gate, out.insert([unused(); 3]));
         };
         if let Some(c) = &m.velocity {
             update(self, c, Channel::Velocity, &mut report.velocity);
@@ -1370,10 +1386,12 @@ impl<T: Real, const S: usize> Engine<T, S> {
         Ok(())
     }
 
-    /// The three scalar updates of one channel's rows, their reports into `out`.
+    /// The three scalar updates of one channel's rows (`cols`: where they may be non-zero,
+    /// a bit per column, see [`Kalman::update_scalar_on`]), their reports into `out`.
     fn update3(
         &mut self,
         rows: &model::Rows<T, S>,
+        cols: (u32, usize),
         z: &Vector3<T>,
         r: Vector3<T>,
         gate: T,
@@ -1381,7 +1399,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
     ) {
         let _phase = probe::enter(Phase::Update);
         for (((row, slot), z), r) in rows.iter().zip(out.iter_mut()).zip(z.iter()).zip(r.iter()) {
-            *slot = self.kf.update_scalar(row, *z, *r, gate);
+            *slot = self.kf.update_scalar_on(row, cols, *z, *r, gate);
         }
     }
 

@@ -275,16 +275,6 @@ fn each_strided<T: Real>(dst: &mut [T], src: &[T], n: usize, mut op: impl FnMut(
     }
 }
 
-/// `dst[m − k] += a U(k, m)` for `m ≥ k` (`dst` starts at column `k`; `U(k, k) = 1`), from
-/// `u` (row-major, `n × n`): row `k` of U after its diagonal, contiguous.
-#[inline(always)]
-fn add_urow<T: Real>(dst: &mut [T], a: T, u: &[T], k: usize, n: usize) {
-    if let Some((first, rest)) = dst.split_first_mut() {
-        *first += a;
-        axpy(rest, a, u.get(k * n + k + 1..(k + 1) * n).unwrap_or(&[]));
-    }
-}
-
 /// `acc + v[0] + v[1] + …`, added in that order, four per loop turn (only the sum's
 /// finiteness is used: a step with a non-finite result is refused).
 #[inline(always)]
@@ -1271,6 +1261,24 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// λ column by column and U two rows at a time (the column sweep's arithmetic, see
     /// [`bierman_rows`]). Each conditional variance below the floor is raised to it.
     pub fn update_scalar(&mut self, h: &SVector<T, N>, z: T, r: T, gate: T) -> ScalarUpdate<T> {
+        self.update_scalar_on(h, (0, 0), z, r, gate)
+    }
+
+    /// [`Kalman::update_scalar`] with `h`'s candidate columns given, `(marked, from)`:
+    /// bit `c` of `marked` set for each column `c` below 32 (the caller's index) where `h`
+    /// may be non-zero, and every column from `from` on (a zero among them is skipped as
+    /// before), so the update reads `h` there only instead of scanning all `N` (the engine
+    /// knows its rows' blocks: 7–10 non-zeros of 21). The arithmetic, and its order, are
+    /// [`Kalman::update_scalar`]'s: `h`'s non-zeros are taken in the caller's order
+    /// either way (the marked columns are to be below `from`).
+    pub fn update_scalar_on(
+        &mut self,
+        h: &SVector<T, N>,
+        cols: (u32, usize),
+        z: T,
+        r: T,
+        gate: T,
+    ) -> ScalarUpdate<T> {
         let mut scratch = [[T::zero(); N]; 2];
         let [f, g] = &mut scratch;
         let k = Factors {
@@ -1282,7 +1290,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             floor: self.floor,
             health: &mut self.health,
         };
-        update_n(k, h.as_slice(), (z, r, gate), [f, g])
+        update_n(k, (h.as_slice(), cols), (z, r, gate), [f, g])
     }
 }
 
@@ -1298,12 +1306,14 @@ struct Factors<'a, T> {
     health: &'a mut Health,
 }
 
-/// [`Kalman::update_scalar`] for any `n` (the board's two layouts share one copy): `h` in
-/// the caller's order, `(z, r, gate)`, two `n`-element temporaries (zero) lent by the caller.
+/// [`Kalman::update_scalar_on`] for any `n` (the board's two layouts share one copy): `h`
+/// in the caller's order and its candidate columns (marked, and all from a column on),
+/// `(z, r, gate)`, two
+/// `n`-element temporaries (zero) lent by the caller.
 #[inline(never)]
 fn update_n<T: Real>(
     k: Factors<'_, T>,
-    h: &[T],
+    (h, (marked, past)): (&[T], (u32, usize)),
     (z, r, gate): (T, T, T),
     scratch: [&mut [T]; 2],
 ) -> ScalarUpdate<T> {
@@ -1318,16 +1328,7 @@ fn update_n<T: Real>(
     } = k;
     let [f, g] = scratch;
     let n = pos.len();
-    // f = Uᵀ h over h's non-zeros (a row of U each, from its diagonal on), and h x.
-    let mut hx = T::zero();
-    for (&hk, &p) in h.iter().zip(pos) {
-        if hk != T::zero() {
-            let i = usize::from(p);
-            let v = hk * scale.get(i).copied().unwrap_or_else(T::zero);
-            hx += v * xs.get(i).copied().unwrap_or_else(T::zero);
-            add_urow(f.get_mut(i..).unwrap_or(&mut []), v, u, i, n);
-        }
-    }
+    let hx = project(f, (h, marked, past), (u, xs, scale, pos));
     let mut s = r;
     for ((gj, &fj), &dj) in g.iter_mut().zip(f.iter()).zip(d.iter()) {
         *gj = dj * fj;
@@ -1386,18 +1387,83 @@ fn update_n<T: Real>(
             clamped += 1;
         }
     }
-    // Then U two rows at a time (contiguous), each row's b_i = (P h)_i ending in its
-    // state's step: K = P h / s, x ← x + K ν. Rows i and i + 1 both from a column at or
-    // before max(lo, i), b from zero: a row through its own column (U(i, i) = 1 stored,
-    // kept as 1 + λ_i 0) takes b_i = 0 + g_i, its value at the column sweep's column i;
-    // through the columns before it (zeros stored, b = 0) it stays as it was, and so do
-    // the columns before lo (λ = g = 0, the identity's steps).
-    let step = innovation / s;
-    let (lambda, g) = (&*f, &*g);
+    // Then U and the state ([`sweep`]).
+    sweep(u, xs, (f, g), (lo, hi), innovation / s);
+    health.variance_clamped += clamped;
+    health.updates += 1;
+    ScalarUpdate {
+        innovation,
+        variance: s,
+        test_ratio,
+        accepted: true,
+    }
+}
+
+/// `f = Uᵀ h` into `f` (zero, `n` long) over h's candidate columns (see
+/// [`Kalman::update_scalar_on`]); returns `h x`. Its own function: inlined into
+/// [`update_n`] its loop's registers spilled into the rest's (a few hundred instructions
+/// an update on the board).
+#[inline(never)]
+fn project<T: Real>(
+    f: &mut [T],
+    (h, mut marked, mut past): (&[T], u32, usize),
+    (u, xs, scale, pos): (&[T], &[T], &[T], &[u8]),
+) -> T {
+    let n = pos.len();
+    // f = Uᵀ h over h's non-zeros in the caller's order (a row of U each, from its
+    // diagonal on: f_i += v, then row i after its diagonal), and h x.
+    let mut hx = T::zero();
+    loop {
+        let c = if marked != 0 {
+            let c = marked.trailing_zeros();
+            marked &= marked - 1;
+            usize::try_from(c).unwrap_or(usize::MAX)
+        } else if past < n {
+            past += 1;
+            past - 1
+        } else {
+            break;
+        };
+        let (Some(&hk), Some(&p)) = (h.get(c), pos.get(c)) else {
+            continue;
+        };
+        if hk != T::zero() {
+            let i = usize::from(p);
+            let v = hk * scale.get(i).copied().unwrap_or_else(T::zero);
+            hx += v * xs.get(i).copied().unwrap_or_else(T::zero);
+            if let Some((fi, rest)) = f.get_mut(i..).and_then(|f| f.split_first_mut()) {
+                *fi += v;
+                axpy(rest, v, u.get(i * n + i + 1..).unwrap_or(&[]));
+            }
+        }
+    }
+    hx
+}
+
+/// Bierman's U two rows at a time (contiguous), each row's `b_i = (P h)_i` ending in its
+/// state's step `x_i += step b_i` (K = P h / s, x ← x + K ν); `λ` and `g` from
+/// [`update_n`]'s column pass, `lo..hi` the columns with `f ≠ 0`. Rows i and i + 1 both
+/// from a column at or before max(lo, i), b from zero: a row through its own column
+/// (U(i, i) = 1 stored, kept as 1 + λ_i 0) takes b_i = 0 + g_i, its value at the column
+/// sweep's column i; through the columns before it (zeros stored, b = 0) it stays as it
+/// was, and so do the columns before lo (λ = g = 0, the identity's steps).
+#[inline(never)]
+fn sweep<T: Real>(
+    u: &mut [T],
+    xs: &mut [T],
+    (lambda, g): (&[T], &[T]),
+    (lo, hi): (usize, usize),
+    step: T,
+) {
+    let n = xs.len();
+    let (Some(lambda), Some(g)) = (lambda.get(..n), g.get(..n)) else {
+        return;
+    };
+    let hi = hi.min(n);
     let mut pairs = u.chunks_exact_mut((2 * n).max(1));
     let mut x2 = xs.chunks_exact_mut(2);
     for (p, (rows, x)) in (&mut pairs).zip(&mut x2).enumerate() {
-        let from = lo.max(2 * p);
+        let from = lo.max(2 * p).min(hi);
         let (top, bottom) = rows.split_at_mut(n.min(rows.len()));
         let (b0, b1) = match (
             top.get_mut(from..hi),
@@ -1418,14 +1484,6 @@ fn update_n<T: Real>(
     // An odd last row has no column after it.
     if let (Some(x), Some(&gi)) = (x2.into_remainder().first_mut(), g.get(n - n % 2)) {
         *x += step * gi;
-    }
-    health.variance_clamped += clamped;
-    health.updates += 1;
-    ScalarUpdate {
-        innovation,
-        variance: s,
-        test_ratio,
-        accepted: true,
     }
 }
 
