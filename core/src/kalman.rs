@@ -247,34 +247,6 @@ fn dot<T: Real>(a: &[T], b: &[T]) -> T {
     s0 + s1
 }
 
-/// `op(&mut dst[m], src[m n])` for every `m` of `dst` (`src` holds at least
-/// `(dst.len() − 1) n + 1` elements; beyond what it holds, `dst` is left). Four at a time,
-/// each group's reach checked once, so the loop is loads and the operation (the plain loop
-/// checked every index and cost twice the contiguous one).
-#[inline(always)]
-fn each_strided<T: Real>(dst: &mut [T], src: &[T], n: usize, mut op: impl FnMut(&mut T, T)) {
-    let mut s = src;
-    let mut d4 = dst.chunks_exact_mut(4);
-    for d in &mut d4 {
-        let w = s.get(..=3 * n).unwrap_or(&[]);
-        if let ([d0, d1, d2, d3], Some(&p0), Some(&p1), Some(&p2), Some(&p3)) =
-            (d, w.first(), w.get(n), w.get(2 * n), w.get(3 * n))
-        {
-            op(d0, p0);
-            op(d1, p1);
-            op(d2, p2);
-            op(d3, p3);
-        }
-        s = s.get(4 * n..).unwrap_or(&[]);
-    }
-    for d in d4.into_remainder() {
-        if let Some(&p) = s.first() {
-            op(d, p);
-        }
-        s = s.get(n..).unwrap_or(&[]);
-    }
-}
-
 /// `acc + v[0] + v[1] + …`, added in that order, four per loop turn (only the sum's
 /// finiteness is used: a step with a non-finite result is refused).
 #[inline(always)]
@@ -466,11 +438,13 @@ fn mark<const N: usize>(above: &mut [u64; N], i: usize, j: usize) {
 /// Column-major unit upper triangular `U` (entries above the diagonal) turned in place
 /// into its rows, row-major: row `i` at `i N`, `1` on the diagonal, zeros before it (the
 /// filter's storage, and the rows of `W = Φ U` where Φ is the identity). The time
-/// update's Gram-Schmidt leaves U column-major; a start factors P₀ column-major.
+/// update's Gram-Schmidt leaves U column-major; a start factors P₀ column-major. The
+/// columns from `t0` on are left as they are: the Gram-Schmidt's static columns, which
+/// stay in U's rows (see [`orthogonalize`]; `N` for all).
 #[inline(always)]
-fn rows_of_u<T: Real, const N: usize>(u: &mut [T]) {
+fn rows_of_u<T: Real, const N: usize>(u: &mut [T], t0: usize) {
     for i in 0..N {
-        for k in i..N {
+        for k in i..t0.min(N) {
             let lower = u.get(k * N + i).copied().unwrap_or_else(T::zero);
             if let Some(e) = u.get_mut(i * N + k) {
                 *e = if k == i { T::one() } else { lower };
@@ -496,8 +470,10 @@ fn rows_of_u<T: Real, const N: usize>(u: &mut [T]) {
 /// States from `t0` on are *static*: their rows of W are U's (Φ the identity there) and
 /// take no noise. Their pivots then leave D and their rows as they are, and take each
 /// earlier row's entry in their column as is (the row of U after the orthogonalization
-/// against them is the unit row, so `a_ij = w_ij`): those columns of `U` are W's,
-/// moved into place, with no arithmetic (the 33-state layout's calibration constants).
+/// against them is the unit row, so `a_ij = w_ij`): those columns of `U` are W's, left
+/// where they are, in U's rows, with no arithmetic and no copy (the 33-state layout's
+/// calibration constants; [`rows_of_u`] leaves them). Only the columns before `t0` end
+/// column-major.
 #[inline(always)]
 fn orthogonalize<T: Real, const N: usize>(
     u: &mut [T],
@@ -555,17 +531,6 @@ fn orthogonalize_n<T: Real>(w: Gram<'_, T>, scratch: [&mut [T]; 4], floor: T, t0
     }
     let mut clamped = 0;
     let t0 = t0.min(n);
-    for j in (t0..n).rev() {
-        each_strided(
-            col.get_mut(..j).unwrap_or(&mut []),
-            u.get(j..).unwrap_or(&[]),
-            n,
-            |c, p| *c = p,
-        );
-        if let (Some(dst), Some(src)) = (u.get_mut(j * n..j * n + j), col.get(..j)) {
-            dst.copy_from_slice(src);
-        }
-    }
     for j in (0..t0).rev() {
         let l = lo.get(j).map_or(n, |&v| usize::from(v));
         let fq = first.get(j).map_or(nq, |&v| usize::from(v));
@@ -854,7 +819,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
                 *e = dj.max(T::zero());
             }
         }
-        rows_of_u::<T, N>(self.u.as_mut_slice());
+        rows_of_u::<T, N>(self.u.as_mut_slice(), N);
         self.xs.fill(T::zero());
         self.floor = variance_floor;
     }
@@ -903,7 +868,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         self.xs.fill(T::zero());
         self.floor = variance_floor;
         self.order_static_last(is_static);
-        rows_of_u::<T, N>(self.u.as_mut_slice());
+        rows_of_u::<T, N>(self.u.as_mut_slice(), N);
     }
 
     /// Moves the states `is_static` names behind the others (see [`static_last`]).
@@ -1085,7 +1050,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             }
         }
         orthogonalize(u, &mut lo, &mut q, self.d.as_mut_slice(), floor, N);
-        rows_of_u::<T, N>(u);
+        rows_of_u::<T, N>(u, N);
     }
 
     /// Scales state `i` by `d > 0`: `x_i ← d x_i`, row and column `i` of P by `d` (`P_ii`
@@ -1188,7 +1153,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             self.floor,
             t0,
         );
-        rows_of_u::<T, N>(self.u.as_mut_slice());
+        rows_of_u::<T, N>(self.u.as_mut_slice(), t0);
     }
 
     /// The time update's `x ← Φ x` and the first part of its Gram-Schmidt matrix,
