@@ -933,6 +933,13 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         vget(&self.xs, a) * vget(&self.scale, a)
     }
 
+    /// States `b`, `b + 1`, `b + 2` (physical units): a block of [`Kalman::state`] without
+    /// forming the others (the engine's feedback and estimates read five blocks of 21).
+    #[inline(never)]
+    pub fn state3(&self, b: usize) -> nalgebra::Vector3<T> {
+        nalgebra::Vector3::new(self.state_at(b), self.state_at(b + 1), self.state_at(b + 2))
+    }
+
     /// Scaled covariance element `P_s(i, j) = Σ_{k ≥ max(i, j)} U(i, k) D_k U(j, k)` (O(N)),
     /// `i` and `j` the internal positions.
     fn scaled_at(&self, i: usize, j: usize) -> T {
