@@ -57,9 +57,10 @@ pub struct Transition<T, const N: usize, const R: usize> {
     /// Those rows: `Φ(index[r], j)` at `values[r][j]`.
     values: [[T; N]; R],
     /// Non-zero columns of each row, ascending; `count[r]` of them (a byte each: the
-    /// engine's layouts have at most 33 states).
+    /// engine's layouts have at most 33 states; so is the count, 3 B a row less of the
+    /// time update's stack than a `usize`).
     cols: [[u8; N]; R],
-    count: [usize; R],
+    count: [u8; R],
 }
 
 impl<T: Real, const N: usize, const R: usize> Transition<T, N, R> {
@@ -130,7 +131,7 @@ impl<T: Real, const N: usize, const R: usize> Transition<T, N, R> {
         };
         // Only the listed columns can be non-zero (every other was never written or was
         // written zero): clearing them clears the row, without a pass over all N.
-        for &c in cols.get(..*count).unwrap_or(&[]) {
+        for &c in cols.get(..usize::from(*count)).unwrap_or(&[]) {
             if let Some(e) = dst.get_mut(usize::from(c)) {
                 *e = T::zero();
             }
@@ -148,7 +149,7 @@ impl<T: Real, const N: usize, const R: usize> Transition<T, N, R> {
                 }
             }
         }
-        *count = n;
+        *count = u8::try_from(n).unwrap_or(u8::MAX);
     }
 
     /// Element `(i, j)` of Φ.
@@ -1180,31 +1181,72 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         let mut x_new = [T::zero(); R];
         let mut check = T::zero();
         let u = self.u.as_mut_slice();
-        let rows = active
-            .iter_mut()
-            .zip(active_lo.iter_mut())
-            .zip(x_new.iter_mut());
-        for (r, ((row, lo), xn)) in rows.enumerate() {
-            let (Some(&i), Some(vals), Some(cols), Some(&n)) = (
-                phi.index.get(r),
-                phi.values.get(r),
-                phi.cols.get(r),
-                phi.count.get(r),
-            ) else {
-                continue;
+        let xs = self.xs.as_slice();
+        // Φ's row r over its columns: (its state's 1 / s_i, the columns).
+        let row_of = |r: usize| {
+            let i = phi.index.get(r).map_or(N, |&i| internal(i));
+            let n = phi.count.get(r).map_or(0, |&n| usize::from(n));
+            let cols = phi.cols.get(r).and_then(|c| c.get(..n)).unwrap_or(&[]);
+            (at(inv, i), cols, phi.values.get(r))
+        };
+        // Two rows at a time where they share their columns (δv's and ψ's six rows):
+        // each U row read once for both, each row's elements computed as alone.
+        let mut r = 0;
+        while r < R {
+            let (inv0, cols0, vals0) = row_of(r);
+            let (inv1, cols1, vals1) = row_of(r + 1);
+            let pair = r + 1 < R && cols0 == cols1;
+            let (first, rest) = active.split_at_mut((r + 1).min(R));
+            let (Some(row0), Some(vals0)) = (first.last_mut(), vals0) else {
+                break;
             };
-            let cols = cols.get(..n).unwrap_or(&[]);
-            let inv_i = at(inv, internal(i));
-            for &k in cols {
-                let (k, a) = (usize::from(k), internal(usize::from(k)));
-                *lo = (*lo).min(a as u8);
-                let f = at(vals, k) * at(sc, a) * inv_i;
-                *xn += f * at(self.xs.as_slice(), a);
-                let src = u.get(a * N + a..(a + 1) * N).unwrap_or(&[]);
-                axpy(row.get_mut(a..).unwrap_or(&mut []), f, src);
+            let (mut lo0, mut xn0) = (active_lo.get(r).copied().unwrap_or(N as u8), T::zero());
+            let (mut lo1, mut xn1) = (lo0, T::zero());
+            match (pair, rest.first_mut(), vals1) {
+                (true, Some(row1), Some(vals1)) => {
+                    for &k in cols0 {
+                        let (k, a) = (usize::from(k), internal(usize::from(k)));
+                        lo0 = lo0.min(a as u8);
+                        lo1 = lo1.min(a as u8);
+                        let (sa, xa) = (at(sc, a), at(xs, a));
+                        let f0 = at(vals0, k) * sa * inv0;
+                        let f1 = at(vals1, k) * sa * inv1;
+                        xn0 += f0 * xa;
+                        xn1 += f1 * xa;
+                        let src = u.get(a * N + a..(a + 1) * N).unwrap_or(&[]);
+                        let (d0, d1) = (row0.get_mut(a..), row1.get_mut(a..));
+                        axpy2(d0.unwrap_or(&mut []), d1.unwrap_or(&mut []), f0, f1, src);
+                    }
+                    check += xn0;
+                    check = sum_into(check, row0);
+                    check += xn1;
+                    check = sum_into(check, row1);
+                }
+                _ => {
+                    for &k in cols0 {
+                        let (k, a) = (usize::from(k), internal(usize::from(k)));
+                        lo0 = lo0.min(a as u8);
+                        let f = at(vals0, k) * at(sc, a) * inv0;
+                        xn0 += f * at(xs, a);
+                        let src = u.get(a * N + a..(a + 1) * N).unwrap_or(&[]);
+                        axpy(row0.get_mut(a..).unwrap_or(&mut []), f, src);
+                    }
+                    check += xn0;
+                    check = sum_into(check, row0);
+                }
             }
-            check += *xn;
-            check = sum_into(check, row);
+            let rows = if pair {
+                [(r, lo0, xn0), (r + 1, lo1, xn1)]
+            } else {
+                [(r, lo0, xn0); 2]
+            };
+            for (q, lo, xn) in rows {
+                if let (Some(l), Some(x)) = (active_lo.get_mut(q), x_new.get_mut(q)) {
+                    *l = lo;
+                    *x = xn;
+                }
+            }
+            r += if pair { 2 } else { 1 };
         }
         if !check.is_finite() {
             return None;
