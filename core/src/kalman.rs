@@ -444,16 +444,28 @@ fn mark<const N: usize>(above: &mut [u64; N], i: usize, j: usize) {
 /// stay in U's rows (see [`orthogonalize`]; `N` for all).
 #[inline(always)]
 fn rows_of_u<T: Real, const N: usize>(u: &mut [T], t0: usize) {
-    for i in 0..N {
-        for k in i..t0.min(N) {
-            let lower = u.get(k * N + i).copied().unwrap_or_else(T::zero);
-            if let Some(e) = u.get_mut(i * N + k) {
-                *e = if k == i { T::one() } else { lower };
-            }
-            if k != i {
-                if let Some(e) = u.get_mut(k * N + i) {
-                    *e = T::zero();
-                }
+    rows_of_u_n(u, N, t0);
+}
+
+/// [`rows_of_u`] for any `n` (one copy for the board's two layouts and its four callers).
+#[inline(never)]
+fn rows_of_u_n<T: Real>(u: &mut [T], n: usize, t0: usize) {
+    let t0 = t0.min(n);
+    for i in 0..t0 {
+        // Row i's place (its diagonal to column t0) and the rows below it, whose element
+        // i is column i of U: moved up, zeroed.
+        let (top, below) = u.split_at_mut(((i + 1) * n).min(u.len()));
+        let Some((diag, row)) = top
+            .get_mut(i * n + i..i * n + t0)
+            .and_then(|r| r.split_first_mut())
+        else {
+            continue;
+        };
+        *diag = T::one();
+        for (e, r) in row.iter_mut().zip(below.chunks_exact_mut(n.max(1))) {
+            if let Some(lower) = r.get_mut(i) {
+                *e = *lower;
+                *lower = T::zero();
             }
         }
     }
@@ -1140,15 +1152,30 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             self.health.non_finite += 1;
             return;
         };
-        // The static states at the end of the internal order (see [`orthogonalize`]).
+        // The static states at the end of the internal order (see [`orthogonalize`]):
+        // the states with noise or a row of Φ marked once (a bit each, N ≤ 64), then
+        // the internal order walked back to the first marked (a scan of Q's pairs and
+        // Φ's rows per state cost the board 0.9k instructions a time update).
+        let bit = |j: usize| 1u64.checked_shl(u32::try_from(j).unwrap_or(u32::MAX));
+        let mut dynamic = 0u64;
+        for (j, &v) in q_diag.iter().enumerate() {
+            if v != T::zero() {
+                dynamic |= bit(j).unwrap_or(0);
+            }
+        }
+        for &(a, b, v) in q_pairs.iter() {
+            if v != T::zero() {
+                dynamic |= bit(a).unwrap_or(0) | bit(b).unwrap_or(0);
+            }
+        }
+        for &j in phi.index.iter() {
+            dynamic |= bit(j).unwrap_or(0);
+        }
         let mut t0 = N;
         while let Some(a) = t0.checked_sub(1) {
             let j = self.state_at.get(a).map_or(N, |&i| usize::from(i));
-            let noisy = q_diag.get(j).is_some_and(|&v| v != T::zero())
-                || q_pairs
-                    .iter()
-                    .any(|&(a, b, v)| (a == j || b == j) && v != T::zero());
-            if noisy || phi.index.contains(&j) {
+            // A state past 64 (none: N ≤ 64) would count as dynamic.
+            if bit(j).is_none_or(|m| dynamic & m != 0) {
                 break;
             }
             t0 = a;
