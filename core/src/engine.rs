@@ -780,8 +780,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
 
     /// The current estimates with their standard deviations.
     pub fn estimates(&self) -> Estimates<T> {
-        let x = self.kf.state();
-        let block = |b: usize| Vector3::new(vget(&x, b), vget(&x, b + 1), vget(&x, b + 2));
+        let kf = &self.kf;
+        let block = |b: usize| kf.state3(b);
         let sig =
             |b: usize| Vector3::new(self.kf.sigma(b), self.kf.sigma(b + 1), self.kf.sigma(b + 2));
         Estimates {
@@ -1349,8 +1349,24 @@ impl<T: Real, const S: usize> Engine<T, S> {
                     }
                 }
             }
+            // The rows' candidate columns: the declared blocks' (θ̇'s too when the lag
+            // moves θ's into them), then every augmented one.
+            let three = |o: usize| {
+                u32::try_from(o)
+                    .ok()
+                    .and_then(|o| 0b111u32.checked_shl(o))
+                    .unwrap_or(0)
+            };
+            let mut declared = 0;
+            for (offset, _) in &c.blocks {
+                declared |= three(*offset);
+            }
+            if lag != T::zero() {
+                declared |= three(THD);
+            }
+            let cols = (declared, N);
             let gate = engine.cfg.gate_sigma;
-            engine.update3(&rows, &c.z, c.r, gate, out.insert([unused(); 3]));
+            engine.update3(&rows, cols, &c.z, c.r, gate, out.insert([unused(); 3]));
         };
         if let Some(c) = &m.velocity {
             update(self, c, Channel::Velocity, &mut report.velocity);
@@ -1374,10 +1390,12 @@ impl<T: Real, const S: usize> Engine<T, S> {
         Ok(())
     }
 
-    /// The three scalar updates of one channel's rows, their reports into `out`.
+    /// The three scalar updates of one channel's rows (`cols`: where they may be non-zero,
+    /// a bit per column, see [`Kalman::update_scalar_on`]), their reports into `out`.
     fn update3(
         &mut self,
         rows: &model::Rows<T, S>,
+        cols: (u32, usize),
         z: &Vector3<T>,
         r: Vector3<T>,
         gate: T,
@@ -1385,7 +1403,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
     ) {
         let _phase = probe::enter(Phase::Update);
         for (((row, slot), z), r) in rows.iter().zip(out.iter_mut()).zip(z.iter()).zip(r.iter()) {
-            *slot = self.kf.update_scalar(row, *z, *r, gate);
+            *slot = self.kf.update_scalar_on(row, cols, *z, *r, gate);
         }
     }
 
@@ -1428,12 +1446,19 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// go into the nominal solution and their states return to zero. Flexure stays.
     /// `t`: the time of the master message just matched; later messages are later.
     fn feedback(&mut self, t: f64) {
-        let x = self.kf.state();
-        let block = |b: usize| Vector3::new(vget(&x, b), vget(&x, b + 1), vget(&x, b + 2));
+        // The states read one by one (the whole state vector formed and copied cost the
+        // board ≈ 0.5k instructions a call).
+        let kf = &self.kf;
+        let block = |b: usize| kf.state3(b);
         let (dv, psi) = (block(V), block(PSI));
-        self.gyro_bias += block(BG);
-        self.accel_bias += block(BA);
-        self.misalignment += block(MU);
+        let (bg, ba, mu) = (block(BG), block(BA), block(MU));
+        let delay = self.cfg.augmentation.offset(Effect::TimeDelay);
+        let clock = self.cfg.augmentation.offset(Effect::ClockDrift);
+        let at = |o: Option<usize>, k: usize| o.map_or(T::zero(), |o| kf.state_at(o + k));
+        let (x_delay, x_clock, x_clock_rate) = (at(delay, 0), at(clock, 0), at(clock, 1));
+        self.gyro_bias += bg;
+        self.accel_bias += ba;
+        self.misalignment += mu;
         if let Some(sd) = self.strapdown.as_mut() {
             // Compensated like the strapdown's own steps (a small ψ rounded into the
             // f32 quaternion would be lost systematically).
@@ -1444,9 +1469,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
         // The delay is fed back only once it is known to a fraction of a filter period:
         // early on, its estimate also carries the start's velocity and attitude errors,
         // and moving the matching time by such a guess corrupts the flexure states.
-        let delay = self.cfg.augmentation.offset(Effect::TimeDelay);
         if let Some(o) = delay.filter(|&o| self.kf.sigma(o).to_f64() < DELAY_FEEDBACK_SIGMA_S) {
-            let tau = self.delay_s + vget(&x, o).to_f64();
+            let tau = self.delay_s + x_delay.to_f64();
             self.delay_s = tau.clamp(-MAX_DELAY_S, MAX_DELAY_S);
             self.kf.reset_states(o..o + 1);
         }
@@ -1455,12 +1479,12 @@ impl<T: Real, const S: usize> Engine<T, S> {
         // correlation left out, Δ at least that span: near t₀ the rate is not yet known
         // however well the delay is, and a rate fed back early moves every later
         // matching time by its error).
-        if let Some(o) = self.cfg.augmentation.offset(Effect::ClockDrift) {
+        if let Some(o) = clock {
             let dt = self.clock_dt(t).abs().max(CLOCK_DRIFT_PRIOR_SPAN_S);
             let sigma = self.kf.sigma(o).to_f64() + dt * self.kf.sigma(o + 1).to_f64();
             if sigma < DELAY_FEEDBACK_SIGMA_S {
-                let tau = self.delay_s + vget(&x, o).to_f64();
-                let rate = self.delay_rate + vget(&x, o + 1).to_f64();
+                let tau = self.delay_s + x_clock.to_f64();
+                let rate = self.delay_rate + x_clock_rate.to_f64();
                 self.delay_s = tau.clamp(-MAX_DELAY_S, MAX_DELAY_S);
                 self.delay_rate = rate.clamp(-MAX_DELAY_RATE, MAX_DELAY_RATE);
                 self.kf.reset_states(o..o + 2);

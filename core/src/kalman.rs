@@ -57,9 +57,10 @@ pub struct Transition<T, const N: usize, const R: usize> {
     /// Those rows: `Φ(index[r], j)` at `values[r][j]`.
     values: [[T; N]; R],
     /// Non-zero columns of each row, ascending; `count[r]` of them (a byte each: the
-    /// engine's layouts have at most 33 states).
+    /// engine's layouts have at most 33 states; so is the count, 3 B a row less of the
+    /// time update's stack than a `usize`).
     cols: [[u8; N]; R],
-    count: [usize; R],
+    count: [u8; R],
 }
 
 impl<T: Real, const N: usize, const R: usize> Transition<T, N, R> {
@@ -130,7 +131,7 @@ impl<T: Real, const N: usize, const R: usize> Transition<T, N, R> {
         };
         // Only the listed columns can be non-zero (every other was never written or was
         // written zero): clearing them clears the row, without a pass over all N.
-        for &c in cols.get(..*count).unwrap_or(&[]) {
+        for &c in cols.get(..usize::from(*count)).unwrap_or(&[]) {
             if let Some(e) = dst.get_mut(usize::from(c)) {
                 *e = T::zero();
             }
@@ -148,7 +149,7 @@ impl<T: Real, const N: usize, const R: usize> Transition<T, N, R> {
                 }
             }
         }
-        *count = n;
+        *count = u8::try_from(n).unwrap_or(u8::MAX);
     }
 
     /// Element `(i, j)` of Φ.
@@ -245,44 +246,6 @@ fn dot<T: Real>(a: &[T], b: &[T]) -> T {
         s0 += x * y;
     }
     s0 + s1
-}
-
-/// `op(&mut dst[m], src[m n])` for every `m` of `dst` (`src` holds at least
-/// `(dst.len() − 1) n + 1` elements; beyond what it holds, `dst` is left). Four at a time,
-/// each group's reach checked once, so the loop is loads and the operation (the plain loop
-/// checked every index and cost twice the contiguous one).
-#[inline(always)]
-fn each_strided<T: Real>(dst: &mut [T], src: &[T], n: usize, mut op: impl FnMut(&mut T, T)) {
-    let mut s = src;
-    let mut d4 = dst.chunks_exact_mut(4);
-    for d in &mut d4 {
-        let w = s.get(..=3 * n).unwrap_or(&[]);
-        if let ([d0, d1, d2, d3], Some(&p0), Some(&p1), Some(&p2), Some(&p3)) =
-            (d, w.first(), w.get(n), w.get(2 * n), w.get(3 * n))
-        {
-            op(d0, p0);
-            op(d1, p1);
-            op(d2, p2);
-            op(d3, p3);
-        }
-        s = s.get(4 * n..).unwrap_or(&[]);
-    }
-    for d in d4.into_remainder() {
-        if let Some(&p) = s.first() {
-            op(d, p);
-        }
-        s = s.get(n..).unwrap_or(&[]);
-    }
-}
-
-/// `dst[m − k] += a U(k, m)` for `m ≥ k` (`dst` starts at column `k`; `U(k, k) = 1`), from
-/// `u` (row-major, `n × n`): row `k` of U after its diagonal, contiguous.
-#[inline(always)]
-fn add_urow<T: Real>(dst: &mut [T], a: T, u: &[T], k: usize, n: usize) {
-    if let Some((first, rest)) = dst.split_first_mut() {
-        *first += a;
-        axpy(rest, a, u.get(k * n + k + 1..(k + 1) * n).unwrap_or(&[]));
-    }
 }
 
 /// `acc + v[0] + v[1] + …`, added in that order, four per loop turn (only the sum's
@@ -476,19 +439,33 @@ fn mark<const N: usize>(above: &mut [u64; N], i: usize, j: usize) {
 /// Column-major unit upper triangular `U` (entries above the diagonal) turned in place
 /// into its rows, row-major: row `i` at `i N`, `1` on the diagonal, zeros before it (the
 /// filter's storage, and the rows of `W = Φ U` where Φ is the identity). The time
-/// update's Gram-Schmidt leaves U column-major; a start factors P₀ column-major.
+/// update's Gram-Schmidt leaves U column-major; a start factors P₀ column-major. The
+/// columns from `t0` on are left as they are: the Gram-Schmidt's static columns, which
+/// stay in U's rows (see [`orthogonalize`]; `N` for all).
 #[inline(always)]
-fn rows_of_u<T: Real, const N: usize>(u: &mut [T]) {
-    for i in 0..N {
-        for k in i..N {
-            let lower = u.get(k * N + i).copied().unwrap_or_else(T::zero);
-            if let Some(e) = u.get_mut(i * N + k) {
-                *e = if k == i { T::one() } else { lower };
-            }
-            if k != i {
-                if let Some(e) = u.get_mut(k * N + i) {
-                    *e = T::zero();
-                }
+fn rows_of_u<T: Real, const N: usize>(u: &mut [T], t0: usize) {
+    rows_of_u_n(u, N, t0);
+}
+
+/// [`rows_of_u`] for any `n` (one copy for the board's two layouts and its four callers).
+#[inline(never)]
+fn rows_of_u_n<T: Real>(u: &mut [T], n: usize, t0: usize) {
+    let t0 = t0.min(n);
+    for i in 0..t0 {
+        // Row i's place (its diagonal to column t0) and the rows below it, whose element
+        // i is column i of U: moved up, zeroed.
+        let (top, below) = u.split_at_mut(((i + 1) * n).min(u.len()));
+        let Some((diag, row)) = top
+            .get_mut(i * n + i..i * n + t0)
+            .and_then(|r| r.split_first_mut())
+        else {
+            continue;
+        };
+        *diag = T::one();
+        for (e, r) in row.iter_mut().zip(below.chunks_exact_mut(n.max(1))) {
+            if let Some(lower) = r.get_mut(i) {
+                *e = *lower;
+                *lower = T::zero();
             }
         }
     }
@@ -506,8 +483,10 @@ fn rows_of_u<T: Real, const N: usize>(u: &mut [T]) {
 /// States from `t0` on are *static*: their rows of W are U's (Φ the identity there) and
 /// take no noise. Their pivots then leave D and their rows as they are, and take each
 /// earlier row's entry in their column as is (the row of U after the orthogonalization
-/// against them is the unit row, so `a_ij = w_ij`): those columns of `U` are W's,
-/// moved into place, with no arithmetic (the 33-state layout's calibration constants).
+/// against them is the unit row, so `a_ij = w_ij`): those columns of `U` are W's, left
+/// where they are, in U's rows, with no arithmetic and no copy (the 33-state layout's
+/// calibration constants; [`rows_of_u`] leaves them). Only the columns before `t0` end
+/// column-major.
 #[inline(always)]
 fn orthogonalize<T: Real, const N: usize>(
     u: &mut [T],
@@ -565,17 +544,6 @@ fn orthogonalize_n<T: Real>(w: Gram<'_, T>, scratch: [&mut [T]; 4], floor: T, t0
     }
     let mut clamped = 0;
     let t0 = t0.min(n);
-    for j in (t0..n).rev() {
-        each_strided(
-            col.get_mut(..j).unwrap_or(&mut []),
-            u.get(j..).unwrap_or(&[]),
-            n,
-            |c, p| *c = p,
-        );
-        if let (Some(dst), Some(src)) = (u.get_mut(j * n..j * n + j), col.get(..j)) {
-            dst.copy_from_slice(src);
-        }
-    }
     for j in (0..t0).rev() {
         let l = lo.get(j).map_or(n, |&v| usize::from(v));
         let fq = first.get(j).map_or(nq, |&v| usize::from(v));
@@ -864,7 +832,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
                 *e = dj.max(T::zero());
             }
         }
-        rows_of_u::<T, N>(self.u.as_mut_slice());
+        rows_of_u::<T, N>(self.u.as_mut_slice(), N);
         self.xs.fill(T::zero());
         self.floor = variance_floor;
     }
@@ -913,7 +881,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         self.xs.fill(T::zero());
         self.floor = variance_floor;
         self.order_static_last(is_static);
-        rows_of_u::<T, N>(self.u.as_mut_slice());
+        rows_of_u::<T, N>(self.u.as_mut_slice(), N);
     }
 
     /// Moves the states `is_static` names behind the others (see [`static_last`]).
@@ -976,6 +944,13 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     pub fn state_at(&self, i: usize) -> T {
         let a = self.internal(i);
         vget(&self.xs, a) * vget(&self.scale, a)
+    }
+
+    /// States `b`, `b + 1`, `b + 2` (physical units): a block of [`Kalman::state`] without
+    /// forming the others (the engine's feedback and estimates read five blocks of 21).
+    #[inline(never)]
+    pub fn state3(&self, b: usize) -> nalgebra::Vector3<T> {
+        nalgebra::Vector3::new(self.state_at(b), self.state_at(b + 1), self.state_at(b + 2))
     }
 
     /// Scaled covariance element `P_s(i, j) = Σ_{k ≥ max(i, j)} U(i, k) D_k U(j, k)` (O(N)),
@@ -1095,7 +1070,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             }
         }
         orthogonalize(u, &mut lo, &mut q, self.d.as_mut_slice(), floor, N);
-        rows_of_u::<T, N>(u);
+        rows_of_u::<T, N>(u, N);
     }
 
     /// Scales state `i` by `d > 0`: `x_i ← d x_i`, row and column `i` of P by `d` (`P_ii`
@@ -1253,15 +1228,30 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             self.health.non_finite += 1;
             return;
         };
-        // The static states at the end of the internal order (see [`orthogonalize`]).
+        // The static states at the end of the internal order (see [`orthogonalize`]):
+        // the states with noise or a row of Φ marked once (a bit each, N ≤ 64), then
+        // the internal order walked back to the first marked (a scan of Q's pairs and
+        // Φ's rows per state cost the board 0.9k instructions a time update).
+        let bit = |j: usize| 1u64.checked_shl(u32::try_from(j).unwrap_or(u32::MAX));
+        let mut dynamic = 0u64;
+        for (j, &v) in q_diag.iter().enumerate() {
+            if v != T::zero() {
+                dynamic |= bit(j).unwrap_or(0);
+            }
+        }
+        for &(a, b, v) in q_pairs.iter() {
+            if v != T::zero() {
+                dynamic |= bit(a).unwrap_or(0) | bit(b).unwrap_or(0);
+            }
+        }
+        for &j in phi.index.iter() {
+            dynamic |= bit(j).unwrap_or(0);
+        }
         let mut t0 = N;
         while let Some(a) = t0.checked_sub(1) {
             let j = self.state_at.get(a).map_or(N, |&i| usize::from(i));
-            let noisy = q_diag.get(j).is_some_and(|&v| v != T::zero())
-                || q_pairs
-                    .iter()
-                    .any(|&(a, b, v)| (a == j || b == j) && v != T::zero());
-            if noisy || phi.index.contains(&j) {
+            // A state past 64 (none: N ≤ 64) would count as dynamic.
+            if bit(j).is_none_or(|m| dynamic & m != 0) {
                 break;
             }
             t0 = a;
@@ -1274,7 +1264,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             self.floor,
             t0,
         );
-        rows_of_u::<T, N>(self.u.as_mut_slice());
+        rows_of_u::<T, N>(self.u.as_mut_slice(), t0);
     }
 
     /// The time update's `x ← Φ x` and the first part of its Gram-Schmidt matrix,
@@ -1294,31 +1284,72 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         let mut x_new = [T::zero(); R];
         let mut check = T::zero();
         let u = self.u.as_mut_slice();
-        let rows = active
-            .iter_mut()
-            .zip(active_lo.iter_mut())
-            .zip(x_new.iter_mut());
-        for (r, ((row, lo), xn)) in rows.enumerate() {
-            let (Some(&i), Some(vals), Some(cols), Some(&n)) = (
-                phi.index.get(r),
-                phi.values.get(r),
-                phi.cols.get(r),
-                phi.count.get(r),
-            ) else {
-                continue;
+        let xs = self.xs.as_slice();
+        // Φ's row r over its columns: (its state's 1 / s_i, the columns).
+        let row_of = |r: usize| {
+            let i = phi.index.get(r).map_or(N, |&i| internal(i));
+            let n = phi.count.get(r).map_or(0, |&n| usize::from(n));
+            let cols = phi.cols.get(r).and_then(|c| c.get(..n)).unwrap_or(&[]);
+            (at(inv, i), cols, phi.values.get(r))
+        };
+        // Two rows at a time where they share their columns (δv's and ψ's six rows):
+        // each U row read once for both, each row's elements computed as alone.
+        let mut r = 0;
+        while r < R {
+            let (inv0, cols0, vals0) = row_of(r);
+            let (inv1, cols1, vals1) = row_of(r + 1);
+            let pair = r + 1 < R && cols0 == cols1;
+            let (first, rest) = active.split_at_mut((r + 1).min(R));
+            let (Some(row0), Some(vals0)) = (first.last_mut(), vals0) else {
+                break;
             };
-            let cols = cols.get(..n).unwrap_or(&[]);
-            let inv_i = at(inv, internal(i));
-            for &k in cols {
-                let (k, a) = (usize::from(k), internal(usize::from(k)));
-                *lo = (*lo).min(a as u8);
-                let f = at(vals, k) * at(sc, a) * inv_i;
-                *xn += f * at(self.xs.as_slice(), a);
-                let src = u.get(a * N + a..(a + 1) * N).unwrap_or(&[]);
-                axpy(row.get_mut(a..).unwrap_or(&mut []), f, src);
+            let (mut lo0, mut xn0) = (active_lo.get(r).copied().unwrap_or(N as u8), T::zero());
+            let (mut lo1, mut xn1) = (lo0, T::zero());
+            match (pair, rest.first_mut(), vals1) {
+                (true, Some(row1), Some(vals1)) => {
+                    for &k in cols0 {
+                        let (k, a) = (usize::from(k), internal(usize::from(k)));
+                        lo0 = lo0.min(a as u8);
+                        lo1 = lo1.min(a as u8);
+                        let (sa, xa) = (at(sc, a), at(xs, a));
+                        let f0 = at(vals0, k) * sa * inv0;
+                        let f1 = at(vals1, k) * sa * inv1;
+                        xn0 += f0 * xa;
+                        xn1 += f1 * xa;
+                        let src = u.get(a * N + a..(a + 1) * N).unwrap_or(&[]);
+                        let (d0, d1) = (row0.get_mut(a..), row1.get_mut(a..));
+                        axpy2(d0.unwrap_or(&mut []), d1.unwrap_or(&mut []), f0, f1, src);
+                    }
+                    check += xn0;
+                    check = sum_into(check, row0);
+                    check += xn1;
+                    check = sum_into(check, row1);
+                }
+                _ => {
+                    for &k in cols0 {
+                        let (k, a) = (usize::from(k), internal(usize::from(k)));
+                        lo0 = lo0.min(a as u8);
+                        let f = at(vals0, k) * at(sc, a) * inv0;
+                        xn0 += f * at(xs, a);
+                        let src = u.get(a * N + a..(a + 1) * N).unwrap_or(&[]);
+                        axpy(row0.get_mut(a..).unwrap_or(&mut []), f, src);
+                    }
+                    check += xn0;
+                    check = sum_into(check, row0);
+                }
             }
-            check += *xn;
-            check = sum_into(check, row);
+            let rows = if pair {
+                [(r, lo0, xn0), (r + 1, lo1, xn1)]
+            } else {
+                [(r, lo0, xn0); 2]
+            };
+            for (q, lo, xn) in rows {
+                if let (Some(l), Some(x)) = (active_lo.get_mut(q), x_new.get_mut(q)) {
+                    *l = lo;
+                    *x = xn;
+                }
+            }
+            r += if pair { 2 } else { 1 };
         }
         if !check.is_finite() {
             return None;
@@ -1347,6 +1378,24 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// λ column by column and U two rows at a time (the column sweep's arithmetic, see
     /// [`bierman_rows`]). Each conditional variance below the floor is raised to it.
     pub fn update_scalar(&mut self, h: &SVector<T, N>, z: T, r: T, gate: T) -> ScalarUpdate<T> {
+        self.update_scalar_on(h, (0, 0), z, r, gate)
+    }
+
+    /// [`Kalman::update_scalar`] with `h`'s candidate columns given, `(marked, from)`:
+    /// bit `c` of `marked` set for each column `c` below 32 (the caller's index) where `h`
+    /// may be non-zero, and every column from `from` on (a zero among them is skipped as
+    /// before), so the update reads `h` there only instead of scanning all `N` (the engine
+    /// knows its rows' blocks: 7–10 non-zeros of 21). The arithmetic, and its order, are
+    /// [`Kalman::update_scalar`]'s: `h`'s non-zeros are taken in the caller's order
+    /// either way (the marked columns are to be below `from`).
+    pub fn update_scalar_on(
+        &mut self,
+        h: &SVector<T, N>,
+        cols: (u32, usize),
+        z: T,
+        r: T,
+        gate: T,
+    ) -> ScalarUpdate<T> {
         let mut scratch = [[T::zero(); N]; 2];
         let [f, g] = &mut scratch;
         let k = Factors {
@@ -1358,7 +1407,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             floor: self.floor,
             health: &mut self.health,
         };
-        update_n(k, h.as_slice(), (z, r, gate), [f, g])
+        update_n(k, (h.as_slice(), cols), (z, r, gate), [f, g])
     }
 }
 
@@ -1374,12 +1423,14 @@ struct Factors<'a, T> {
     health: &'a mut Health,
 }
 
-/// [`Kalman::update_scalar`] for any `n` (the board's two layouts share one copy): `h` in
-/// the caller's order, `(z, r, gate)`, two `n`-element temporaries (zero) lent by the caller.
+/// [`Kalman::update_scalar_on`] for any `n` (the board's two layouts share one copy): `h`
+/// in the caller's order and its candidate columns (marked, and all from a column on),
+/// `(z, r, gate)`, two
+/// `n`-element temporaries (zero) lent by the caller.
 #[inline(never)]
 fn update_n<T: Real>(
     k: Factors<'_, T>,
-    h: &[T],
+    (h, (marked, past)): (&[T], (u32, usize)),
     (z, r, gate): (T, T, T),
     scratch: [&mut [T]; 2],
 ) -> ScalarUpdate<T> {
@@ -1394,16 +1445,7 @@ fn update_n<T: Real>(
     } = k;
     let [f, g] = scratch;
     let n = pos.len();
-    // f = Uᵀ h over h's non-zeros (a row of U each, from its diagonal on), and h x.
-    let mut hx = T::zero();
-    for (&hk, &p) in h.iter().zip(pos) {
-        if hk != T::zero() {
-            let i = usize::from(p);
-            let v = hk * scale.get(i).copied().unwrap_or_else(T::zero);
-            hx += v * xs.get(i).copied().unwrap_or_else(T::zero);
-            add_urow(f.get_mut(i..).unwrap_or(&mut []), v, u, i, n);
-        }
-    }
+    let hx = project(f, (h, marked, past), (u, xs, scale, pos));
     let mut s = r;
     for ((gj, &fj), &dj) in g.iter_mut().zip(f.iter()).zip(d.iter()) {
         *gj = dj * fj;
@@ -1462,18 +1504,83 @@ fn update_n<T: Real>(
             clamped += 1;
         }
     }
-    // Then U two rows at a time (contiguous), each row's b_i = (P h)_i ending in its
-    // state's step: K = P h / s, x ← x + K ν. Rows i and i + 1 both from a column at or
-    // before max(lo, i), b from zero: a row through its own column (U(i, i) = 1 stored,
-    // kept as 1 + λ_i 0) takes b_i = 0 + g_i, its value at the column sweep's column i;
-    // through the columns before it (zeros stored, b = 0) it stays as it was, and so do
-    // the columns before lo (λ = g = 0, the identity's steps).
-    let step = innovation / s;
-    let (lambda, g) = (&*f, &*g);
+    // Then U and the state ([`sweep`]).
+    sweep(u, xs, (f, g), (lo, hi), innovation / s);
+    health.variance_clamped += clamped;
+    health.updates += 1;
+    ScalarUpdate {
+        innovation,
+        variance: s,
+        test_ratio,
+        accepted: true,
+    }
+}
+
+/// `f = Uᵀ h` into `f` (zero, `n` long) over h's candidate columns (see
+/// [`Kalman::update_scalar_on`]); returns `h x`. Its own function: inlined into
+/// [`update_n`] its loop's registers spilled into the rest's (a few hundred instructions
+/// an update on the board).
+#[inline(never)]
+fn project<T: Real>(
+    f: &mut [T],
+    (h, mut marked, mut past): (&[T], u32, usize),
+    (u, xs, scale, pos): (&[T], &[T], &[T], &[u8]),
+) -> T {
+    let n = pos.len();
+    // f = Uᵀ h over h's non-zeros in the caller's order (a row of U each, from its
+    // diagonal on: f_i += v, then row i after its diagonal), and h x.
+    let mut hx = T::zero();
+    loop {
+        let c = if marked != 0 {
+            let c = marked.trailing_zeros();
+            marked &= marked - 1;
+            usize::try_from(c).unwrap_or(usize::MAX)
+        } else if past < n {
+            past += 1;
+            past - 1
+        } else {
+            break;
+        };
+        let (Some(&hk), Some(&p)) = (h.get(c), pos.get(c)) else {
+            continue;
+        };
+        if hk != T::zero() {
+            let i = usize::from(p);
+            let v = hk * scale.get(i).copied().unwrap_or_else(T::zero);
+            hx += v * xs.get(i).copied().unwrap_or_else(T::zero);
+            if let Some((fi, rest)) = f.get_mut(i..).and_then(|f| f.split_first_mut()) {
+                *fi += v;
+                axpy(rest, v, u.get(i * n + i + 1..).unwrap_or(&[]));
+            }
+        }
+    }
+    hx
+}
+
+/// Bierman's U two rows at a time (contiguous), each row's `b_i = (P h)_i` ending in its
+/// state's step `x_i += step b_i` (K = P h / s, x ← x + K ν); `λ` and `g` from
+/// [`update_n`]'s column pass, `lo..hi` the columns with `f ≠ 0`. Rows i and i + 1 both
+/// from a column at or before max(lo, i), b from zero: a row through its own column
+/// (U(i, i) = 1 stored, kept as 1 + λ_i 0) takes b_i = 0 + g_i, its value at the column
+/// sweep's column i; through the columns before it (zeros stored, b = 0) it stays as it
+/// was, and so do the columns before lo (λ = g = 0, the identity's steps).
+#[inline(never)]
+fn sweep<T: Real>(
+    u: &mut [T],
+    xs: &mut [T],
+    (lambda, g): (&[T], &[T]),
+    (lo, hi): (usize, usize),
+    step: T,
+) {
+    let n = xs.len();
+    let (Some(lambda), Some(g)) = (lambda.get(..n), g.get(..n)) else {
+        return;
+    };
+    let hi = hi.min(n);
     let mut pairs = u.chunks_exact_mut((2 * n).max(1));
     let mut x2 = xs.chunks_exact_mut(2);
     for (p, (rows, x)) in (&mut pairs).zip(&mut x2).enumerate() {
-        let from = lo.max(2 * p);
+        let from = lo.max(2 * p).min(hi);
         let (top, bottom) = rows.split_at_mut(n.min(rows.len()));
         let (b0, b1) = match (
             top.get_mut(from..hi),
@@ -1494,14 +1601,6 @@ fn update_n<T: Real>(
     // An odd last row has no column after it.
     if let (Some(x), Some(&gi)) = (x2.into_remainder().first_mut(), g.get(n - n % 2)) {
         *x += step * gi;
-    }
-    health.variance_clamped += clamped;
-    health.updates += 1;
-    ScalarUpdate {
-        innovation,
-        variance: s,
-        test_ratio,
-        accepted: true,
     }
 }
 
