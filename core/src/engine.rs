@@ -1500,7 +1500,17 @@ impl<T: Real, const S: usize> Engine<T, S> {
 /// specific force (m/s², slave body). A rank-one addition to the factors; nothing when
 /// the floor does not bind (a ship whose motion parts the tilt from the biases).
 fn floor_tilt_bias_product<T: Real, const S: usize>(kf: &mut Kalman<T, S>, f_b: &Vector3<T>) {
-    let p_ba = Matrix3::from_fn(|j, k| kf.cov(BA + j, BA + k));
+    let (xx, yy, zz) = (
+        kf.cov(BA, BA),
+        kf.cov(BA + 1, BA + 1),
+        kf.cov(BA + 2, BA + 2),
+    );
+    let (xy, xz, yz) = (
+        kf.cov(BA, BA + 1),
+        kf.cov(BA, BA + 2),
+        kf.cov(BA + 1, BA + 2),
+    );
+    let p_ba = Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz);
     let Some(fl) = tilt_bias::floor(&p_ba, f_b.norm()) else {
         return;
     };

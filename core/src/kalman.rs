@@ -1123,21 +1123,23 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// `None` if a state is out of range.
     pub fn variance_along(&self, c: &[(usize, T)]) -> Option<T> {
         let v = Self::internal_vector(c, &self.pos, &self.scale)?;
-        // (Uᵀ v)_k = Σ_{lo ≤ i ≤ k} U(i, k) v_i (U(k, k) = 1), zero before v's first
-        // non-zero `lo` (a bias block sits among the static states, last).
+        // Uᵀ v = Σ_i v_i (row i of U), over v's non-zeros: a few contiguous rows, zero
+        // before v's first non-zero `lo` (a bias block sits among the static states, last).
         let lo = v.iter().position(|&x| x != T::zero()).unwrap_or(N);
         let u = self.u.as_slice();
-        let mut acc = T::zero();
-        for (k, &dk) in self.d.iter().enumerate().skip(lo) {
-            let mut f = T::zero();
-            for (i, &vi) in v.iter().enumerate().take(k + 1).skip(lo) {
-                f += if i == k {
-                    vi
-                } else {
-                    u.get(i * N + k).copied().unwrap_or_else(T::zero) * vi
-                };
+        let mut f = [T::zero(); N];
+        for (i, &vi) in v.iter().enumerate().skip(lo) {
+            if vi == T::zero() {
+                continue;
             }
-            acc += dk * f * f;
+            if let Some((fi, rest)) = f.get_mut(i..).and_then(|t| t.split_first_mut()) {
+                *fi += vi;
+                axpy(rest, vi, u.get(i * N + i + 1..(i + 1) * N).unwrap_or(&[]));
+            }
+        }
+        let mut acc = T::zero();
+        for (&dk, &fk) in self.d.iter().zip(&f).skip(lo) {
+            acc += dk * fk * fk;
         }
         Some(acc)
     }
