@@ -1684,6 +1684,20 @@ fn master_rate_slope<T: Real>(
     }))
 }
 
+/// The master's angular acceleration from its two previous rates (rad/s², master body):
+/// their difference over their interval, which belongs to its middle (1.5 master periods
+/// before the message). `None` with fewer than two, or a gap of more than 2.5 filter
+/// periods `period_s` between them.
+fn master_rate_difference<T: Real>(
+    rates: &Deque<(f64, Vector3<T>), RATE_HISTORY>,
+    period_s: f64,
+) -> Option<Vector3<T>> {
+    let mut newest = rates.iter().rev();
+    let (&(t1, w1), &(t0, w0)) = (newest.next()?, newest.next()?);
+    let dt = t1 - t0;
+    (dt > 0.0 && dt <= 2.5 * period_s).then(|| (w1 - w0) / T::of(dt))
+}
+
 /// The columns' ingredients of the augmented blocks for the message `msg` matched at
 /// slave time `t_s`; `rate`: the slave's rate there, `here`: the Earth model at the
 /// master's position, `flexure`: θ(t_s) and θ̇ (see [`measure`]).
@@ -1726,7 +1740,7 @@ fn signature<T: Real>(
         .augmentation
         .offset(Effect::GyroGSensitivity)
         .is_some();
-    let slope = if e.has_delay || g_sensitivity {
+    let slope = if e.has_delay {
         master_rate_slope(e.past_master_rates, e.cfg.filter_period_s, msg.t)
     } else {
         None
@@ -1764,18 +1778,22 @@ fn signature<T: Real>(
     // bending arm's `R θ̈` of the moment, and the rate innovation the flexure's rate
     // `θ̇` the filter has not predicted (errors in variables, as the delay's columns:
     // docs/diagnosis.md "Session 12"), so `f` is the force the master carries to the
-    // arm, its lever-arm terms from the master's rates (the angular acceleration's once
-    // the rates cover their window), its own acceleration once the line spans its
-    // window, rotated to the slave body by the estimated mounting. The rate channel
-    // needs a master that gives its rate; without one, the slave's force (unused).
+    // arm, its lever-arm terms from the master's rates, its own acceleration once the
+    // line spans its window, rotated to the slave body by the estimated mounting. The
+    // angular acceleration is the delay's parabola slope where the layout forms it,
+    // else the difference of the master's two previous rates (the parabola's f64 sums
+    // cost ~290k instructions a message on the board). The rate channel needs a master
+    // that gives its rate; without one, the slave's force (unused).
     let f_carried_bs = match msg.w_ib_bm {
         Some(_) if g_sensitivity => {
+            let w_dot = slope
+                .or_else(|| master_rate_difference(e.past_master_rates, e.cfg.filter_period_s));
             let a_c = augment::carried_acceleration(
                 &e.master_trend.slope().unwrap_or_else(Vector3::zeros),
                 c_bm_n,
                 &w_nb_bm,
                 w_eb_bm,
-                &slope.unwrap_or_else(Vector3::zeros),
+                &w_dot.unwrap_or_else(Vector3::zeros),
                 &e.cfg.lever_arm_m,
             );
             augment::carried_specific_force(
