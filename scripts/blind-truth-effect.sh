@@ -44,7 +44,9 @@ EOF
 if [[ -n $matching ]]; then
   sed -i "s/^matching = .*/matching = [$matching]/" "$rec/calibrate.toml"
 fi
-"$F" calibrate "$rec" --effects "$effect" --out "$rec-cal" > "$rec-cal.log" 2>&1
+# A FAIL verdict (e.g. a NIS band the drawn model misses) still writes summary.json.
+"$F" calibrate "$rec" --effects "$effect" --out "$rec-cal" > "$rec-cal.log" 2>&1 ||
+  echo "calibrate exited $? (verdict in $rec-cal.log)" >&2
 python3 - "$rec-cal/summary.json" "$tag" <<'EOF'
 import json, sys
 e = json.load(open(sys.argv[1]))["effects"][0]

@@ -387,12 +387,16 @@ fn row_major_columns<T: Real>(f: &Vector3<T>) -> SMatrix<T, 3, 9> {
 /// Adds the augmented blocks' columns to rows of the continuous-time dynamics `f` (R×S,
 /// the rows with dynamics): the rows of δv (at `v_row`) and ψ (at `psi_row`), from the period's mean
 /// specific force `f_b` (m/s², slave body), mean rate `w_ib_b` (rad/s, slave body)
-/// and attitude `c_b_n`.
+/// and attitude `c_b_n`; the g-sensitivity's from `f_g_b` (m/s², slave body: the
+/// specific force without the flexure's motion where the master carries it, see
+/// [`crate::model::IntervalMeans::f_g_b`]).
+#[allow(clippy::too_many_arguments)]
 pub fn add_dynamics<T: Real, const R: usize, const S: usize>(
     f: &mut SMatrix<T, R, S>,
     aug: &Augmentation<T>,
     rows: (usize, usize),
     f_b: &Vector3<T>,
+    f_g_b: &Vector3<T>,
     w_ib_b: &Vector3<T>,
     c_b_n: &Matrix3<T>,
 ) {
@@ -408,7 +412,7 @@ pub fn add_dynamics<T: Real, const R: usize, const S: usize>(
             Effect::AccelMisalignment => {
                 add_block(f, v_row, o, &(c_b_n * nonorthogonality_columns(f_b)))
             }
-            Effect::GyroGSensitivity => add_block(f, psi_row, o, &row_major_columns(f_b)),
+            Effect::GyroGSensitivity => add_block(f, psi_row, o, &row_major_columns(f_g_b)),
             // Their own decay is applied apart (`gauss_markov_states`).
             Effect::MasterAttitudeError
             | Effect::MasterVelocityError
@@ -473,6 +477,10 @@ pub struct Signature<T: Real> {
     pub w_ib_bs: Vector3<T>,
     /// Slave specific force, bias-corrected, slave body (m/s²).
     pub f_bs: Vector3<T>,
+    /// The specific force the slave would sense without flexure, slave body (m/s²): the
+    /// master's carried force ([`carried_specific_force`]), the g-sensitivity's rate
+    /// column. None of the slave's flexure is in it (docs/diagnosis.md, "Session 12").
+    pub f_carried_bs: Vector3<T>,
     /// Slave attitude `Ĉ_bs^n` (the strapdown's).
     pub c_bs_n: Matrix3<T>,
     /// Flexure angle estimate θ̂ (rad) and rate θ̂̇ (rad/s), slave body.
@@ -499,6 +507,21 @@ pub fn carried_acceleration<T: Real>(
     r0: &Vector3<T>,
 ) -> Vector3<T> {
     a_m_n + c_bm_n * (w_dot_bm.cross(r0) + w_nb_bm.cross(&w_eb_bm.cross(r0)))
+}
+
+/// The specific force at the slave without flexure, slave body (m/s²): the master's
+/// carried acceleration `a_c` (ENU, [`carried_acceleration`]) less gravity `g_n` (ENU,
+/// `[0, 0, −g]`) plus the Coriolis and transport term `(2ω_ie + ω_en) × v` (ENU), rotated
+/// to the slave body by `c_n_bs` = `Exp(μ̂)ᵀ C_bm^nᵀ` (the estimated mounting):
+/// `v̇ = C f + g − (2ω_ie + ω_en) × v` solved for `f`. What the slave's accelerometer
+/// senses but its bending arm's `R θ̈` and the rest of the flexure's motion.
+pub fn carried_specific_force<T: Real>(
+    a_c_n: &Vector3<T>,
+    g_n: &Vector3<T>,
+    coriolis_n: &Vector3<T>,
+    c_n_bs: &Matrix3<T>,
+) -> Vector3<T> {
+    c_n_bs * (a_c_n - g_n + coriolis_n)
 }
 
 /// Which matching measurement a row belongs to.
@@ -557,7 +580,7 @@ pub fn add_measurement<T: Real, const S: usize>(
                 add_columns(rows, o, &nonorthogonality_columns(&sig.w_ib_bs))
             }
             (Effect::GyroGSensitivity, Channel::AngularRate) => {
-                add_columns(rows, o, &row_major_columns(&sig.f_bs))
+                add_columns(rows, o, &row_major_columns(&sig.f_carried_bs))
             }
             (Effect::LeverArmError, Channel::Velocity) => {
                 add_columns(rows, o, &(sig.c_bm_n * skew(&sig.w_eb_bm)))
@@ -645,6 +668,48 @@ mod tests {
         }
         assert_eq!(Effect::from_name("clock_offset"), None);
         assert_eq!(Effect::from_code(0), None);
+    }
+
+    /// A master at rest, level, turned by a heading: the carried force is gravity's
+    /// reaction, `g` up, in the slave body through the mounting; the g-sensitivity's
+    /// rate column is `G f` of it.
+    #[test]
+    fn carried_specific_force_at_rest_is_gravity_through_the_mounting() {
+        use crate::rotation::exp_so3;
+        let c_bm_n = exp_so3(&Vector3::new(0.0, 0.0, 0.7));
+        let mu = Vector3::new(0.02, -0.01, 0.3);
+        let g_n = Vector3::new(0.0, 0.0, -9.8);
+        let c_n_bs = exp_so3(&mu).transpose() * c_bm_n.transpose();
+        let f = carried_specific_force(&Vector3::zeros(), &g_n, &Vector3::zeros(), &c_n_bs);
+        let expected = exp_so3(&mu).transpose() * Vector3::new(0.0, 0.0, 9.8);
+        assert!((f - expected).norm() < 1e-12, "{f} vs {expected}");
+        let a = Augmentation::<f64>::none()
+            .with(Effect::GyroGSensitivity, 1e-5)
+            .unwrap();
+        let o = a.offset(Effect::GyroGSensitivity).unwrap();
+        let z = Vector3::zeros();
+        let sig = Signature {
+            c_bm_n,
+            w_eb_bm: z,
+            lever_v_n: z,
+            v_dot_n: z,
+            w_nb_bs: z,
+            w_dot_bs: z,
+            w_ib_bs: z,
+            f_bs: Vector3::new(1.0, 2.0, 3.0),
+            f_carried_bs: f,
+            c_bs_n: c_bm_n * exp_so3(&mu),
+            theta: z,
+            theta_rate: z,
+            clock_dt: 0.0,
+        };
+        let mut rows = [SVector::<f64, { N + 9 }>::zeros(); 3];
+        add_measurement(&mut rows, &a, Channel::AngularRate, &sig);
+        let g = Matrix3::new(1e-5, 2e-5, 3e-5, -1e-5, 4e-5, 0.0, 5e-6, 0.0, -2e-5);
+        let g_entries = SVector::<f64, 9>::from_row_slice(g.transpose().as_slice());
+        let modelled =
+            Vector3::from_fn(|i, _| (rows[i].fixed_rows::<9>(o).transpose() * g_entries)[0]);
+        assert!((modelled - g * f).norm() < 1e-15, "{modelled} vs {}", g * f);
     }
 
     #[test]

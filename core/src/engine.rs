@@ -353,6 +353,11 @@ pub struct Engine<T: Real, const S: usize = N> {
     past_master_rates: Deque<(f64, Vector3<T>), RATE_HISTORY>,
     /// The master's own acceleration from its past velocities (the delay's velocity column).
     master_trend: VelocityTrend<T>,
+    /// The specific force the last matched master message carries to the slave, slave
+    /// body (m/s², `Signature::f_carried_bs`), when the layout carries the g-sensitivity
+    /// and the master gives its rate: the g-sensitivity's dynamics column until the
+    /// next (none: the period's mean sensed force). 16 B in `f32`.
+    g_force_bs: Option<Vector3<T>>,
 }
 
 /// The delay estimate is fed back once its σ is below this (s).
@@ -519,6 +524,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             clock_t0: None,
             past_master_rates: Deque::new(),
             master_trend: VelocityTrend::new(),
+            g_force_bs: None,
             frozen: false,
             cfg,
         }
@@ -563,6 +569,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         self.clock_t0 = None;
         self.past_master_rates.clear();
         self.master_trend = VelocityTrend::new();
+        self.g_force_bs = None;
         self.frozen = false;
         self.cfg = cfg;
         Ok(())
@@ -1046,8 +1053,13 @@ impl<T: Real, const S: usize> Engine<T, S> {
             return;
         };
         let dtt = T::of(ep.dt);
+        let f_b = ep.dv / dtt;
         let means = IntervalMeans {
-            f_b: ep.dv / dtt,
+            f_b,
+            // The slave's mean force holds the bending arm's `R θ̈` of the period, which
+            // the flexure states have not yet predicted: the master's force where it
+            // carries one (docs/diagnosis.md "Session 12").
+            f_g_b: self.g_force_bs.unwrap_or(f_b),
             w_ib_b: ep.dtheta / dtt,
             c_b_n: dcm(&nlerp(&ep.q_start, &nav.q_b_n, T::of(0.5))),
             v_n: nav.v_n,
@@ -1166,8 +1178,14 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 t: msg.t,
                 q_bm_n: msg.q_bm_n,
             });
-            // Kept only for the delay's rate and velocity columns.
-            let keep = self.has_delay();
+            // Kept only for the delay's rate and velocity columns and the
+            // g-sensitivity's rate column.
+            let keep = self.has_delay()
+                || self
+                    .cfg
+                    .augmentation
+                    .offset(Effect::GyroGSensitivity)
+                    .is_some();
             if let Some(w) = msg.w_ib_bm.filter(|_| keep) {
                 if self.past_master_rates.is_full() {
                     let _ = self.past_master_rates.pop_front();
@@ -1330,6 +1348,11 @@ impl<T: Real, const S: usize> Engine<T, S> {
         };
         let m = measure(&nominal, msg, t_s, &slave, &flexure);
         let aug = self.cfg.augmentation;
+        if let (Some(sig), Some(_)) = (&m.sig, msg.w_ib_bm) {
+            if aug.offset(Effect::GyroGSensitivity).is_some() {
+                self.g_force_bs = Some(sig.f_carried_bs);
+            }
+        }
         let update = |engine: &mut Self,
                       c: &Measured<T>,
                       channel: Channel,
@@ -1439,6 +1462,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         self.gated_streaks = [0; 3];
         self.past_master_rates.clear();
         self.master_trend = VelocityTrend::new();
+        self.g_force_bs = None;
         self.counters.resets += 1;
     }
 
@@ -1716,6 +1740,20 @@ fn master_rate_slope<T: Real>(
     }))
 }
 
+/// The master's angular acceleration from its two previous rates (rad/s², master body):
+/// their difference over their interval, which belongs to its middle (1.5 master periods
+/// before the message). `None` with fewer than two, or a gap of more than 2.5 filter
+/// periods `period_s` between them.
+fn master_rate_difference<T: Real>(
+    rates: &Deque<(f64, Vector3<T>), RATE_HISTORY>,
+    period_s: f64,
+) -> Option<Vector3<T>> {
+    let mut newest = rates.iter().rev();
+    let (&(t1, w1), &(t0, w0)) = (newest.next()?, newest.next()?);
+    let dt = t1 - t0;
+    (dt > 0.0 && dt <= 2.5 * period_s).then(|| (w1 - w0) / T::of(dt))
+}
+
 /// The columns' ingredients of the augmented blocks for the message `msg` matched at
 /// slave time `t_s`; `rate`: the slave's rate there, `here`: the Earth model at the
 /// master's position, `flexure`: θ(t_s) and θ̇ (see [`measure`]).
@@ -1753,6 +1791,11 @@ fn signature<T: Real>(
     // master's smooth error's increments, which a short window's slope carries, biased
     // it the other way: docs/diagnosis.md "Session 11").
     let m_bs = exp_so3(&e.misalignment).transpose();
+    let g_sensitivity = e
+        .cfg
+        .augmentation
+        .offset(Effect::GyroGSensitivity)
+        .is_some();
     let slope = if e.has_delay {
         master_rate_slope(e.past_master_rates, e.cfg.filter_period_s, msg.t)
     } else {
@@ -1787,6 +1830,37 @@ fn signature<T: Real>(
             c_bs_n * f_bs + here.gravity_n() - (w_ie * T::of(2.0) + w_en).cross(&slave.v_n)
         }
     };
+    // The g-sensitivity's rate column, `G f`: the slave's sensed force holds the
+    // bending arm's `R θ̈` of the moment, and the rate innovation the flexure's rate
+    // `θ̇` the filter has not predicted (errors in variables, as the delay's columns:
+    // docs/diagnosis.md "Session 12"), so `f` is the force the master carries to the
+    // arm, its lever-arm terms from the master's rates, its own acceleration once the
+    // line spans its window, rotated to the slave body by the estimated mounting. The
+    // angular acceleration is the delay's parabola slope where the layout forms it,
+    // else the difference of the master's two previous rates (the parabola's f64 sums
+    // cost ~290k instructions a message on the board). The rate channel needs a master
+    // that gives its rate; without one, the slave's force (unused).
+    let f_carried_bs = match msg.w_ib_bm {
+        Some(_) if g_sensitivity => {
+            let w_dot = slope
+                .or_else(|| master_rate_difference(e.past_master_rates, e.cfg.filter_period_s));
+            let a_c = augment::carried_acceleration(
+                &e.master_trend.slope().unwrap_or_else(Vector3::zeros),
+                c_bm_n,
+                &w_nb_bm,
+                w_eb_bm,
+                &w_dot.unwrap_or_else(Vector3::zeros),
+                &e.cfg.lever_arm_m,
+            );
+            augment::carried_specific_force(
+                &a_c,
+                &here.gravity_n(),
+                &(w_ie * T::of(2.0) + w_en).cross(&slave.v_n),
+                &(m_bs * c_bm_n.transpose()),
+            )
+        }
+        _ => f_bs,
+    };
     Signature {
         c_bm_n: *c_bm_n,
         w_eb_bm: *w_eb_bm,
@@ -1796,6 +1870,7 @@ fn signature<T: Real>(
         w_dot_bs,
         w_ib_bs,
         f_bs,
+        f_carried_bs,
         c_bs_n,
         theta: flexure.0,
         theta_rate: flexure.1,

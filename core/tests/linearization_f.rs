@@ -169,6 +169,7 @@ fn check<const S: usize>(aug: &Augmentation<f64>, steps: usize, dt: f64) {
     let mid = nlerp(&c.start.q_b_n, &end.q_b_n, 0.5);
     let means = IntervalMeans {
         f_b: c.f_b,
+        f_g_b: c.f_b,
         w_ib_b: c.w_b,
         c_b_n: dcm(&mid),
         v_n: end.v_n,
@@ -271,6 +272,7 @@ fn master_error_blocks_are_outside_the_other_rows_of_the_transition() {
     let c = case();
     let means = IntervalMeans {
         f_b: c.f_b,
+        f_g_b: c.f_b,
         w_ib_b: c.w_b,
         c_b_n: dcm(&c.start.q_b_n),
         v_n: c.start.v_n,

@@ -11,6 +11,12 @@
 //! slave's own acceleration (the column before session 11) must not. Second-order
 //! terms are ~ω̈τ/ω̇ ≈ 1e-4 relative: tolerance 1e-3 of the column's largest entry.
 //! Lever-arm error: the residual is linear in δr, so the difference must match to 1e-9.
+//! Gyro g-sensitivity: the slave's gyro senses `ω + G f`, `f` its true specific force
+//! (from finite differences of its truth velocity); the rate residual's difference over
+//! each entry of `G` must equal the rate column built from the master's carried force
+//! (`augment::carried_specific_force`), to 1e-3 of the column's largest entry; with a
+//! flexing slave the column stays the carried force, which the slave's own force (the
+//! column before session 12) misses by the bending arm's acceleration.
 //! Clock drift: the master of `t − τ₀ − τ̇ (t − t₀)`; the central differences over τ₀
 //! (±1e-4 s) and over τ̇ (±1e-4 s / (t − t₀), the same delay change) against the drift's
 //! two columns, with the same tolerance as the delay's.
@@ -24,7 +30,7 @@ use flexcal_sim::sim::scenario::MotionSpec;
 use flexcal_sim::sim::{slave_truth, Fixed, SlaveTruth};
 use nalgebra::{SVector, Vector3};
 
-const S: usize = N + 6;
+const S: usize = N + 9;
 
 fn motion() -> MotionSpec {
     MotionSpec {
@@ -105,6 +111,12 @@ fn signature(fx: &Fixed, t: f64) -> Signature<f64> {
         &w_dot,
         &fx.r0,
     );
+    let f_carried_bs = augment::carried_specific_force(
+        &v_dot_n,
+        &earth::gravity_n(&p),
+        &(earth::earth_rate_n(p.lat_rad) * 2.0 + earth::transport_rate_n(&p, &s.v_n)).cross(&s.v_n),
+        &(exp_so3(&fx.mu).transpose() * m.c_bm_n.transpose()),
+    );
     Signature {
         c_bm_n: m.c_bm_n,
         w_eb_bm: w_eb,
@@ -114,6 +126,7 @@ fn signature(fx: &Fixed, t: f64) -> Signature<f64> {
         w_dot_bs: exp_so3(&fx.mu).transpose() * w_dot,
         w_ib_bs: s.w_ib_bs,
         f_bs: Vector3::zeros(),
+        f_carried_bs,
         c_bs_n: s.c_bs_n,
         theta: Vector3::zeros(),
         theta_rate: Vector3::zeros(),
@@ -336,6 +349,84 @@ fn master_error_columns_match_a_perturbed_master() {
             );
             // The master's velocity error is not seen in its attitude.
             assert_eq!(att[0][ov + k], 0.0);
+        }
+    }
+}
+
+/// The slave's true specific force, slave body (m/s²): `v̇ − g + (2ω_ie + ω_en) × v`
+/// from central differences of its truth velocity, rotated by its truth attitude.
+fn true_specific_force(truth: &dyn Fn(f64) -> SlaveTruth, t: f64) -> Vector3<f64> {
+    let h = 1e-4;
+    let s = truth(t);
+    let p = pos();
+    let v_dot = (truth(t + h).v_n - truth(t - h).v_n) / (2.0 * h);
+    let w = earth::earth_rate_n(p.lat_rad) * 2.0 + earth::transport_rate_n(&p, &s.v_n);
+    s.c_bs_n.transpose() * (v_dot - earth::gravity_n(&p) + w.cross(&s.v_n))
+}
+
+/// The g-sensitivity's rate column against the rate residual of a gyro that senses
+/// `ω + G f`: a rigid slave (the carried force is the slave's own), and a flexing one
+/// (the column is still the carried force; the slave's force holds the bending arm's
+/// acceleration, docs/diagnosis.md "Session 12").
+#[test]
+fn g_sensitivity_rate_column_is_the_carried_specific_force() {
+    let rigid = fixed(Vector3::new(10.0, 4.0, 15.0));
+    let mut flexing = fixed(Vector3::new(10.0, 4.0, 15.0));
+    flexing.r_bend = nalgebra::Matrix3::new(0.0, 15.0, -4.0, -15.0, 0.0, 10.0, 4.0, -10.0, 0.0);
+    let amp = Vector3::new(8e-4, -6e-4, 7e-4);
+    let w = Vector3::new(1.5, 2.3, 1.3);
+    let aug = Augmentation::none()
+        .with(Effect::GyroGSensitivity, 1e-5)
+        .unwrap();
+    let o = aug.offset(Effect::GyroGSensitivity).unwrap();
+    for (fx, a) in [(&rigid, 0.0), (&flexing, 1.0)] {
+        let theta = |t: f64| amp.component_mul(&w.map(|x| (x * t).sin())) * a;
+        let theta_rate =
+            |t: f64| amp.component_mul(&w.component_mul(&w.map(|x| (x * t).cos()))) * a;
+        let truth =
+            |t: f64| slave_truth(fx, &motion().attitude(t), &pos(), &theta(t), &theta_rate(t));
+        let (mut slave_off, mut rigid_off): (f64, f64) = (0.0, 0.0);
+        for t in [1.3, 4.7, 8.2] {
+            let f_true = true_specific_force(&truth, t);
+            let s = truth(t);
+            let m = motion().attitude(t);
+            let (w_ib, _) = master_rates(&m, &fx.v_m);
+            let rows = columns(&aug, Channel::AngularRate, &signature(fx, t));
+            let tol = 1e-3 * f_true.amax();
+            for i in 0..3 {
+                for j in 0..3 {
+                    let z = |g: f64| {
+                        let mut meas = s.w_ib_bs;
+                        meas[i] += g * f_true[j];
+                        model::rate_residual(&meas, &fx.mu, &w_ib)
+                    };
+                    let h = 1e-6;
+                    let fd = (z(h) - z(-h)) / (2.0 * h);
+                    let col = Vector3::new(
+                        rows[0][o + 3 * i + j],
+                        rows[1][o + 3 * i + j],
+                        rows[2][o + 3 * i + j],
+                    );
+                    if a == 0.0 {
+                        rigid_off = rigid_off.max((fd - col).amax() / tol);
+                        assert!(
+                            (fd - col).amax() <= tol,
+                            "G[{i}][{j}] at t = {t}: column {col:?}, finite difference {fd:?}"
+                        );
+                    } else {
+                        slave_off = slave_off.max((fd - col).amax() / tol);
+                    }
+                }
+            }
+        }
+        eprintln!("flexure ×{a}: the column is {rigid_off:.3} (rigid) / {slave_off:.1} (flexing) tolerances off");
+        if a != 0.0 {
+            // The flexing slave's force differs from the carried one by the bending
+            // arm's acceleration (R θ̈ ≈ 0.05 m/s² against ~10 m/s²): ~6 tolerances.
+            assert!(
+                slave_off > 3.0,
+                "the slave's force: {slave_off} tolerances off"
+            );
         }
     }
 }
