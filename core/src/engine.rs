@@ -1842,16 +1842,19 @@ fn signature<T: Real>(
     // that gives its rate; without one, the slave's force (unused).
     let f_carried_bs = match msg.w_ib_bm {
         Some(_) if g_sensitivity => {
-            let w_dot = slope
-                .or_else(|| master_rate_difference(e.past_master_rates, e.cfg.filter_period_s));
-            let a_c = augment::carried_acceleration(
-                &e.master_trend.slope().unwrap_or_else(Vector3::zeros),
-                c_bm_n,
-                &w_nb_bm,
-                w_eb_bm,
-                &w_dot.unwrap_or_else(Vector3::zeros),
-                &e.cfg.lever_arm_m,
-            );
+            // With the parabola's slope the delay's velocity column is this acceleration.
+            let a_c = match slope {
+                Some(_) => v_dot_n,
+                None => augment::carried_acceleration(
+                    &e.master_trend.slope().unwrap_or_else(Vector3::zeros),
+                    c_bm_n,
+                    &w_nb_bm,
+                    w_eb_bm,
+                    &master_rate_difference(e.past_master_rates, e.cfg.filter_period_s)
+                        .unwrap_or_else(Vector3::zeros),
+                    &e.cfg.lever_arm_m,
+                ),
+            };
             augment::carried_specific_force(
                 &a_c,
                 &here.gravity_n(),

@@ -1104,44 +1104,30 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         }
     }
 
-    /// A vector given by its non-zeros `(state, value)`, in the internal order, each
-    /// element times `by`'s at its position (`scale` for a row that multiplies the
-    /// state, `cᵀ x = (S c)ᵀ x_s`; `inv_scale` for a covariance's column, `P_s = S⁻¹ P S⁻¹`);
-    /// `None` if a state is out of range.
-    fn internal_vector(c: &[(usize, T)], pos: &[u8; N], by: &SVector<T, N>) -> Option<[T; N]> {
-        let mut v = [T::zero(); N];
-        for &(i, ci) in c {
-            let a = usize::from(*pos.get(i)?);
-            *v.get_mut(a)? += ci * *by.get(a)?;
-        }
-        Some(v)
-    }
-
     /// `cᵀ P c` (physical units; `c` by its non-zeros `(state, value)`), from the factors
-    /// as `Σ_k D_k (Uᵀ c)_k²`: a variance far below the states' own (a combination the
-    /// data fix much better than its parts) without the cancellation of forming `P`.
-    /// `None` if a state is out of range.
+    /// as `Σ_k D_k (Uᵀ S c)_k²` (`Uᵀ S c` by [`project`], the update's `f = Uᵀ h`): a
+    /// variance far below the states' own (a combination the data fix much better than
+    /// its parts) without the cancellation of forming `P`. `None` if a state is out of
+    /// range.
     pub fn variance_along(&self, c: &[(usize, T)]) -> Option<T> {
-        let v = Self::internal_vector(c, &self.pos, &self.scale)?;
-        // Uᵀ v = Σ_i v_i (row i of U), over v's non-zeros: a few contiguous rows, zero
-        // before v's first non-zero `lo` (a bias block sits among the static states, last).
-        let lo = v.iter().position(|&x| x != T::zero()).unwrap_or(N);
-        let u = self.u.as_slice();
+        let mut h = [T::zero(); N];
+        for &(i, ci) in c {
+            *h.get_mut(i)? += ci;
+        }
         let mut f = [T::zero(); N];
-        for (i, &vi) in v.iter().enumerate().skip(lo) {
-            if vi == T::zero() {
-                continue;
-            }
-            if let Some((fi, rest)) = f.get_mut(i..).and_then(|t| t.split_first_mut()) {
-                *fi += vi;
-                axpy(rest, vi, u.get(i * N + i + 1..(i + 1) * N).unwrap_or(&[]));
-            }
-        }
-        let mut acc = T::zero();
-        for (&dk, &fk) in self.d.iter().zip(&f).skip(lo) {
-            acc += dk * fk * fk;
-        }
-        Some(acc)
+        let factors = (
+            self.u.as_slice(),
+            self.xs.as_slice(),
+            self.scale.as_slice(),
+            self.pos.as_slice(),
+        );
+        project(&mut f, (&h, 0, 0), factors);
+        Some(
+            self.d
+                .iter()
+                .zip(&f)
+                .fold(T::zero(), |acc, (&dk, &fk)| acc + dk * fk * fk),
+        )
     }
 
     /// `P ← P + α c cᵀ` (physical units; `c` by its non-zeros `(state, value)`, `α ≥ 0`)
@@ -1152,11 +1138,20 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// state estimate does not change. A negative or non-finite `α`, or a state out of
     /// range, is refused (counted as non-finite).
     pub fn add_rank_one(&mut self, c: &[(usize, T)], alpha: T) {
-        let v = Self::internal_vector(c, &self.pos, &self.inv_scale);
-        let Some(mut v) = v.filter(|_| alpha >= T::zero() && alpha.is_finite()) else {
+        // c in the internal order, scaled as a covariance's column (P_s = S⁻¹ P S⁻¹).
+        let mut v = [T::zero(); N];
+        let mut in_range = alpha >= T::zero() && alpha.is_finite();
+        for &(i, ci) in c {
+            let a = self.internal(i);
+            match (v.get_mut(a), self.inv_scale.get(a)) {
+                (Some(e), Some(&inv)) => *e += ci * inv,
+                _ => in_range = false,
+            }
+        }
+        if !in_range {
             self.health.non_finite += 1;
             return;
-        };
+        }
         let mut a = alpha;
         let (u, d) = (self.u.as_mut_slice(), self.d.as_mut_slice());
         for j in (0..N).rev() {
