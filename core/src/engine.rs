@@ -1330,9 +1330,18 @@ impl<T: Real, const S: usize> Engine<T, S> {
         let theta_at = |kf: &Kalman<T, S>| {
             Vector3::from_fn(|k, _| kf.state_at(TH + k) - lag * kf.state_at(THD + k))
         };
+        // ... and θ̇(t_s) = θ̇ − lag θ̈, θ̈ = α θ + β θ̇ from each axis's model: the rate
+        // read at the epoch instead moved a fed-back delay estimate by ten times its σ
+        // (docs/diagnosis.md "Session 13").
+        let period = T::of(self.cfg.filter_period_s);
+        let accel = self.cfg.flexure.axes.map(|a| a.acceleration(period));
         let flexure = (
             theta_at(&self.kf),
-            Vector3::from_fn(|k, _| self.kf.state_at(THD + k)),
+            Vector3::from_fn(|k, _| {
+                let (th, thd) = (self.kf.state_at(TH + k), self.kf.state_at(THD + k));
+                let (alpha, beta) = accel.get(k).copied().unwrap_or((T::zero(), T::zero()));
+                thd - lag * (alpha * th + beta * thd)
+            }),
         );
         let nominal = Nominal {
             cfg: &self.cfg,
@@ -1346,7 +1355,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             has_delay: self.has_delay(),
             clock_dt: self.clock_dt(msg.t),
         };
-        let m = measure(&nominal, msg, t_s, &slave, &flexure);
+        let m = measure(&nominal, msg, t_s, &slave, &flexure, t_s + lag.to_f64());
         let aug = self.cfg.augmentation;
         if let (Some(sig), Some(_)) = (&m.sig, msg.w_ib_bm) {
             if aug.offset(Effect::GyroGSensitivity).is_some() {
@@ -1363,11 +1372,15 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 augment::add_measurement(&mut rows, &aug, channel, sig);
             }
             if lag != T::zero() {
+                // a θ(t_s) + c θ̇(t_s) = (a − c lag α) θ + (c − a lag − c lag β) θ̇.
                 for row in rows.iter_mut() {
-                    for k in 0..3 {
-                        let th = vget(row, TH + k);
+                    for (k, &(alpha, beta)) in accel.iter().enumerate() {
+                        let (a, c) = (vget(row, TH + k), vget(row, THD + k));
+                        if let Some(e) = row.get_mut(TH + k) {
+                            *e = a - c * lag * alpha;
+                        }
                         if let Some(e) = row.get_mut(THD + k) {
-                            *e -= lag * th;
+                            *e = c - a * lag - c * lag * beta;
                         }
                     }
                 }
@@ -1385,7 +1398,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 declared |= three(*offset);
             }
             if lag != T::zero() {
-                declared |= three(THD);
+                declared |= three(TH) | three(THD);
             }
             let cols = (declared, N);
             let gate = engine.cfg.gate_sigma;
@@ -1589,7 +1602,8 @@ struct Measurements<T: Real> {
 /// The matching of the master message `msg` at slave time `t_s` (`slave`: the slave's
 /// solution there) before the filter: residuals, the declared blocks of the velocity and
 /// rate rows, the noises, the augmented columns' ingredients. `flexure`: the filter's
-/// θ(t_s) = θ − lag θ̇ and θ̇ before any update of this message.
+/// θ(t_s) = θ − lag θ̇ and θ̇(t_s) = θ̇ − lag θ̈ before any update of this message;
+/// `t_states`: the epoch its states belong to, `t_s + lag`.
 #[inline(never)]
 fn measure<T: Real>(
     e: &Nominal<'_, T>,
@@ -1597,6 +1611,7 @@ fn measure<T: Real>(
     t_s: f64,
     slave: &SlaveAt<T>,
     flexure: &(Vector3<T>, Vector3<T>),
+    t_states: f64,
 ) -> Measurements<T> {
     let c_bm_n = dcm(&msg.q_bm_n);
     let jr = right_jacobian(&e.misalignment);
@@ -1634,7 +1649,13 @@ fn measure<T: Real>(
             let z = (slave_rate.raw_b - e.gyro_bias) - w_m_bs;
             let arw = e.cfg.process_noise.gyro_arw;
             let gyro = arw * arw * T::of(slave_rate.noise_gain);
-            let r = noise.rate_radps.map(|s| s * s + gyro);
+            // The slave's rate is a mean over IMU intervals, the flexure state the rate
+            // at its epoch: the flexure rate's diffusion between them is noise of this
+            // match (`RateAt::departure_from`), carried to the slave's axes by J_r(μ̂).
+            let q = Vector3::from(e.cfg.flexure.axes.map(|a| a.rate_diffusion()));
+            let departure = T::of(slave_rate.departure_from(t_states));
+            let flex = jr.component_mul(&jr) * q * departure;
+            let r = noise.rate_radps.zip_map(&flex, |s, f| s * s + gyro + f);
             Some(Measured {
                 z,
                 blocks: model::rate_blocks(&w_m_bs, &jr),

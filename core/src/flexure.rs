@@ -64,6 +64,41 @@ impl<T: Real> AxisModel<T> {
             AxisModel::SecondOrder(g) => Some(g.stationary_covariance()),
         }
     }
+
+    /// The flexure's angular acceleration as the model predicts it from its states,
+    /// `θ̈ = α θ + β θ̇`, as `(α, β)` (1/s², 1/s). A second-order axis's is its equation,
+    /// `(−ω², −2ζω)`; an AR(2)'s the change of its rate state over one period `t`,
+    /// `(Φ₂₁, Φ₂₂ − 1) / t`. The engine needs it where it reads the states at a matching
+    /// time off their epoch: the rate there is `θ̇ − lag θ̈`, not `θ̇`.
+    pub fn acceleration(&self, t: T) -> (T, T) {
+        match self {
+            AxisModel::Ar(a) => {
+                let phi = a.transition(t);
+                let (p21, p22) = (crate::mat::get(&phi, 1, 0), crate::mat::get(&phi, 1, 1));
+                (p21 / t, (p22 - T::one()) / t)
+            }
+            AxisModel::SecondOrder(g) => {
+                let w = g.omega_rad_s;
+                (-(w * w), -(T::of(2.0) * g.damping * w))
+            }
+        }
+    }
+
+    /// The density `q` of the white angular acceleration that drives the flexure rate
+    /// (rad²/s³): over a short time `s` the rate moves by `N(0, q s)`. A second-order
+    /// axis's is `4ζω³σ²` (its stationary `ω²σ²` = `q / (4ζω)`); an AR(2) at the filter
+    /// period says nothing of the rate inside a period (its rate state is the period's
+    /// mean), so its is zero. The rate matching needs it: the slave's rate is a mean over
+    /// IMU intervals, the state the rate at one instant (`align::RateAt::flexure_gain`).
+    pub fn rate_diffusion(&self) -> T {
+        match self {
+            AxisModel::Ar(_) => T::zero(),
+            AxisModel::SecondOrder(g) => {
+                let w = g.omega_rad_s;
+                T::of(4.0) * g.damping * w * w * w * g.sigma_rad * g.sigma_rad
+            }
+        }
+    }
 }
 
 /// A second-order Gauss-Markov flexure axis, `θ̈ + 2ζω θ̇ + ω² θ = w`, with its exact
@@ -239,6 +274,33 @@ impl<T: Real> ArAxis<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The angular acceleration each model predicts from its states: the mode's own
+    /// equation for a second-order axis, and for the AR(2) with the same poles the change
+    /// of its rate state over a period, which tends to it as the period shrinks.
+    #[test]
+    fn acceleration_is_the_modes_equation_and_the_ar_tends_to_it() {
+        let (w, z, s) = (1.44_f64, 0.2, 3.85e-4);
+        let exact = AxisModel::SecondOrder(SecondOrderAxis::new(w, z, s, 0.05).unwrap());
+        let (a, b) = exact.acceleration(0.05);
+        assert_eq!((a, b), (-(w * w), -2.0 * z * w));
+        for t in [0.01, 0.001] {
+            let ar = AxisModel::Ar(ArAxis::from_gauss_markov(w, z, s, t));
+            let (a_ar, b_ar) = ar.acceleration(t);
+            assert!(
+                (a_ar - a).abs() < 2.0 * w * w * w * t,
+                "{t}: α {a_ar} against {a}"
+            );
+            assert!(
+                (b_ar - b).abs() < 4.0 * (z * w) * (z * w) * t,
+                "{t}: β {b_ar} against {b}"
+            );
+        }
+        // The rate diffusion: 4ζω³σ² for the mode, none said by an AR(2).
+        assert!((exact.rate_diffusion() - 4.0 * z * w.powi(3) * s * s).abs() < 1e-20);
+        let ar = AxisModel::Ar(ArAxis::from_gauss_markov(w, z, s, 0.05));
+        assert_eq!(ar.rate_diffusion(), 0.0);
+    }
 
     #[test]
     fn transition_matches_ar_recursion() {
