@@ -43,8 +43,8 @@ use flexcal_core::engine::{
 use flexcal_core::ident::{ArIdentifier, Criterion};
 use flexcal_core::kalman::Health;
 use flexcal_core::link::{
-    ConfigMsg, EffectsMsg, Encoder, EstimatesMsg, HealthFlags, LinkCounters, Message, Receiver,
-    StatusMsg, MAX_FRAME_LEN,
+    ConfigMsg, EffectsMsg, Encoder, EstimatesMsg, HealthFlags, LinkCounters, LinkError, Message,
+    MessageKind, Receiver, StatusMsg, MAX_FRAME_LEN,
 };
 use flexcal_core::model::{N, TH};
 use flexcal_core::probe::{self, Phase};
@@ -294,7 +294,9 @@ pub struct AxisFit {
 /// the stack.
 #[derive(Clone, Debug)]
 pub struct App {
-    rx: Receiver,
+    /// Parses the host-to-board kinds only: a board-to-host frame is checked, sequenced
+    /// and counted ([`AppCounters::unexpected`]) without its payload being read.
+    rx: Receiver<{ MessageKind::TO_BOARD }>,
     tx: Encoder,
     engine: Option<BoardEngine>,
     config: Option<ConfigMsg>,
@@ -319,7 +321,7 @@ impl App {
     /// No engine yet: the first Config message creates it.
     pub fn new() -> Self {
         Self {
-            rx: Receiver::new(),
+            rx: Receiver::parsing(),
             tx: Encoder::new(),
             engine: None,
             config: None,
@@ -337,6 +339,9 @@ impl App {
         let _phase = probe::enter(Phase::Link);
         match self.rx.push(byte) {
             Some(Ok(r)) => self.handle(&r.frame.message, out),
+            Some(Err(LinkError::NotParsed { .. })) => {
+                self.counters.unexpected = self.counters.unexpected.wrapping_add(1);
+            }
             Some(Err(_e)) => {
                 debug!("link: frame refused");
             }
@@ -968,6 +973,35 @@ mod tests {
         assert_eq!(c.config_refused, 1);
         assert_eq!(c.no_engine, 5);
         assert!(app.engine().is_none());
+    }
+
+    #[test]
+    fn board_to_host_frames_are_counted_not_parsed() {
+        let mut msgs = stream(20, config(1, 0));
+        // The board's own Estimates and Status echoed back (a looped-back line), between
+        // the host's messages: counted as unexpected, the run unchanged.
+        let (_, sent) = run_app(&encode_all(&msgs).concat());
+        let echoed: std::vec::Vec<Message> = sent
+            .iter()
+            .filter(|m| matches!(m, Message::Estimates(_) | Message::Status(_)))
+            .take(4)
+            .copied()
+            .collect();
+        assert_eq!(echoed.len(), 4);
+        let end = msgs.pop().unwrap();
+        let plain = encode_all(&msgs);
+        let mut bytes = plain.concat();
+        bytes.extend(encode_all(&echoed).concat());
+        bytes.extend(encode_all(&[end]).concat());
+        let (app, with_echo) = run_app(&bytes);
+        let (reference, _) = run_app(&encode_all(&stream(20, config(1, 0))).concat());
+        assert_eq!(app.counters().unexpected, 4);
+        assert_eq!(reference.counters().unexpected, 0);
+        let (a, r) = (app.link_counters(), reference.link_counters());
+        assert_eq!(a.decoder.frames, r.decoder.frames + 4);
+        assert_eq!(a.decoder.errors(), 0);
+        assert_eq!(a.sequence.accepted, r.sequence.accepted + 4);
+        assert_eq!(last_estimates(&with_echo), last_estimates(&sent));
     }
 
     /// A layout of 10 added states: time delay, lever-arm error, both scale factors.

@@ -145,6 +145,38 @@ impl MessageKind {
         }
     }
 
+    /// Every kind: a set of kinds is a byte with bit [`MessageKind::stream_index`] set
+    /// for each of its kinds (a receiver's kinds to parse, [`crate::link::Receiver`]).
+    pub const EVERY: u8 = (1 << Self::COUNT) - 1;
+
+    /// The kinds a host sends to the board (type byte's bit 7 clear): MasterNav,
+    /// ImuSample, Config and End; the board's receiver parses these only.
+    pub const TO_BOARD: u8 = MessageKind::MasterNav.bit()
+        | MessageKind::ImuSample.bit()
+        | MessageKind::Config.bit()
+        | MessageKind::End.bit();
+
+    /// This kind's bit in a set of kinds ([`MessageKind::EVERY`]).
+    pub const fn bit(self) -> u8 {
+        1 << self.stream_index()
+    }
+
+    /// Whether this kind is in `set` (a set of [`MessageKind::bit`]s). A match with a
+    /// constant per arm: with a constant set the compiler sees which kinds pass (a test of
+    /// `bit()` it does not relate to the kind's other matches).
+    #[inline(always)]
+    pub const fn in_set(self, set: u8) -> bool {
+        match self {
+            MessageKind::MasterNav => set & MessageKind::MasterNav.bit() != 0,
+            MessageKind::ImuSample => set & MessageKind::ImuSample.bit() != 0,
+            MessageKind::Config => set & MessageKind::Config.bit() != 0,
+            MessageKind::End => set & MessageKind::End.bit() != 0,
+            MessageKind::Estimates => set & MessageKind::Estimates.bit() != 0,
+            MessageKind::Status => set & MessageKind::Status.bit() != 0,
+            MessageKind::Effects => set & MessageKind::Effects.bit() != 0,
+        }
+    }
+
     /// Index of this kind's stream, `0..COUNT` (sequence numbers are per stream).
     pub const fn stream_index(self) -> usize {
         match self {
@@ -1017,19 +1049,37 @@ impl Message {
     /// Parses and validates a payload of the given kind.
     #[inline(always)]
     pub fn read_payload(kind: MessageKind, payload: &[u8]) -> Result<Self, PayloadError> {
+        Self::read_payload_of::<{ MessageKind::EVERY }>(kind, payload)
+    }
+
+    /// [`Message::read_payload`] compiled for the kinds in `PARSE` only (a set of
+    /// [`MessageKind::bit`]s, [`MessageKind::in_set`]); a kind not in it is refused as
+    /// [`PayloadError::BadLength`] (the caller tests the kind first). With a constant set
+    /// the other kinds' parsing is not compiled in.
+    #[inline(always)]
+    pub fn read_payload_of<const PARSE: u8>(
+        kind: MessageKind,
+        payload: &[u8],
+    ) -> Result<Self, PayloadError> {
         if payload.len() != kind.payload_len() {
             return Err(PayloadError::BadLength);
         }
-        let msg = Self::parse(kind, payload).ok_or(PayloadError::BadLength)??;
+        let msg = Self::parse::<PARSE>(kind, payload).ok_or(PayloadError::BadLength)??;
         msg.validate()?;
         Ok(msg)
     }
 
+    /// Each arm's guard is a constant: the arms of the kinds not in `PARSE` are not
+    /// compiled in.
     #[inline(always)]
-    fn parse(kind: MessageKind, payload: &[u8]) -> Option<Result<Self, PayloadError>> {
+    fn parse<const PARSE: u8>(
+        kind: MessageKind,
+        payload: &[u8],
+    ) -> Option<Result<Self, PayloadError>> {
+        let takes = |k: MessageKind| k.in_set(PARSE);
         let mut r = Reader { rest: payload };
         let msg = match kind {
-            MessageKind::MasterNav => {
+            MessageKind::MasterNav if takes(MessageKind::MasterNav) => {
                 let t = r.f64()?;
                 let q_bm_n = r.f64s()?;
                 let v_n = r.f32s()?;
@@ -1056,24 +1106,28 @@ impl Message {
                     w_ib_bm,
                 })
             }
-            MessageKind::ImuSample => Message::ImuSample(ImuSampleMsg {
-                t: r.f64()?,
-                dtheta_b: r.f32s()?,
-                dv_b: r.f32s()?,
-            }),
-            MessageKind::Estimates => Message::Estimates(EstimatesMsg {
-                t: r.f64()?,
-                gyro_bias: r.f32s()?,
-                gyro_bias_sigma: r.f32s()?,
-                accel_bias: r.f32s()?,
-                accel_bias_sigma: r.f32s()?,
-                misalignment: r.f32s()?,
-                misalignment_sigma: r.f32s()?,
-                flexure: r.f32s()?,
-                flexure_sigma: r.f32s()?,
-                health: HealthFlags(u16::from_le_bytes(r.bytes()?)),
-            }),
-            MessageKind::Status => {
+            MessageKind::ImuSample if takes(MessageKind::ImuSample) => {
+                Message::ImuSample(ImuSampleMsg {
+                    t: r.f64()?,
+                    dtheta_b: r.f32s()?,
+                    dv_b: r.f32s()?,
+                })
+            }
+            MessageKind::Estimates if takes(MessageKind::Estimates) => {
+                Message::Estimates(EstimatesMsg {
+                    t: r.f64()?,
+                    gyro_bias: r.f32s()?,
+                    gyro_bias_sigma: r.f32s()?,
+                    accel_bias: r.f32s()?,
+                    accel_bias_sigma: r.f32s()?,
+                    misalignment: r.f32s()?,
+                    misalignment_sigma: r.f32s()?,
+                    flexure: r.f32s()?,
+                    flexure_sigma: r.f32s()?,
+                    health: HealthFlags(u16::from_le_bytes(r.bytes()?)),
+                })
+            }
+            MessageKind::Status if takes(MessageKind::Status) => {
                 let t = r.f64()?;
                 let mut c = [0u32; STATUS_COUNTERS];
                 for slot in c.iter_mut() {
@@ -1102,7 +1156,7 @@ impl Message {
                 };
                 Message::Status(m)
             }
-            MessageKind::Config => {
+            MessageKind::Config if takes(MessageKind::Config) => {
                 let t = r.f64()?;
                 let filter_period_s = r.f64()?;
                 let flags = r.u8()?;
@@ -1189,8 +1243,8 @@ impl Message {
                     master_error_correlation_s,
                 })
             }
-            MessageKind::End => Message::End(EndMsg { t: r.f64()? }),
-            MessageKind::Effects => {
+            MessageKind::End if takes(MessageKind::End) => Message::End(EndMsg { t: r.f64()? }),
+            MessageKind::Effects if takes(MessageKind::Effects) => {
                 let t = r.f64()?;
                 let mut layout = [None; MAX_EFFECTS];
                 for slot in layout.iter_mut() {
@@ -1214,6 +1268,7 @@ impl Message {
                     sigma: r.f32s()?,
                 })
             }
+            _ => return None,
         };
         if r.rest.is_empty() {
             Some(Ok(msg))
@@ -1640,7 +1695,14 @@ mod tests {
         for (i, k) in MessageKind::ALL.into_iter().enumerate() {
             assert_eq!(k.stream_index(), i);
             assert_eq!(MessageKind::from_type_byte(k.type_byte()), Some(k));
+            assert_ne!(MessageKind::EVERY & k.bit(), 0);
+            // The board parses exactly the kinds whose type byte has bit 7 clear.
+            assert_eq!(
+                MessageKind::TO_BOARD & k.bit() != 0,
+                k.type_byte() & 0x80 == 0
+            );
         }
+        assert_eq!(MessageKind::EVERY.count_ones() as usize, MessageKind::COUNT);
         let known = (0..=255u8)
             .filter(|b| MessageKind::from_type_byte(*b).is_some())
             .count();
