@@ -43,8 +43,8 @@ use flexcal_core::engine::{
 use flexcal_core::ident::{ArIdentifier, Criterion};
 use flexcal_core::kalman::Health;
 use flexcal_core::link::{
-    ConfigMsg, EffectsMsg, Encoder, EstimatesMsg, HealthFlags, LinkCounters, LinkError, Message,
-    MessageKind, Receiver, StatusMsg, MAX_FRAME_LEN,
+    ConfigMsg, EffectsMsg, Encoder, EstimatesMsg, Frame, HealthFlags, LinkCounters, LinkError,
+    Message, MessageKind, Receiver, StatusMsg, MAX_FRAME_LEN,
 };
 use flexcal_core::model::{N, TH};
 use flexcal_core::probe::{self, Phase};
@@ -297,6 +297,9 @@ pub struct App {
     /// Parses the host-to-board kinds only: a board-to-host frame is checked, sequenced
     /// and counted ([`AppCounters::unexpected`]) without its payload being read.
     rx: Receiver<{ MessageKind::TO_BOARD }>,
+    /// The frame the receiver parses into (in place: a message passed by value was copied
+    /// whole, 240 bytes, at each layer).
+    frame: Frame,
     tx: Encoder,
     engine: Option<BoardEngine>,
     config: Option<ConfigMsg>,
@@ -322,6 +325,7 @@ impl App {
     pub fn new() -> Self {
         Self {
             rx: Receiver::parsing(),
+            frame: Frame::EMPTY,
             tx: Encoder::new(),
             engine: None,
             config: None,
@@ -337,8 +341,8 @@ impl App {
     /// Feeds one received byte; frames to send go to `out` (one call per frame).
     pub fn push_byte<W: FnMut(&[u8])>(&mut self, byte: u8, out: &mut W) {
         let _phase = probe::enter(Phase::Link);
-        match self.rx.push(byte) {
-            Some(Ok(r)) => self.handle(&r.frame.message, out),
+        match self.rx.push_into(byte, &mut self.frame) {
+            Some(Ok(_)) => self.handle(out),
             Some(Err(LinkError::NotParsed { .. })) => {
                 self.counters.unexpected = self.counters.unexpected.wrapping_add(1);
             }
@@ -351,9 +355,29 @@ impl App {
 
     /// Feeds a run of received bytes.
     pub fn push_bytes<W: FnMut(&[u8])>(&mut self, bytes: &[u8], out: &mut W) {
-        for b in bytes {
-            self.push_byte(*b, out);
+        self.push_bytes_until_end(bytes, out);
+    }
+
+    /// Feeds a run of received bytes up to the end of the first frame that ends the run
+    /// ([`App::ended`]); returns how many were taken (all of them if none did). A frame's
+    /// bytes before its delimiter are buffered in one loop ([`Receiver::take_run`]), the
+    /// delimiter goes through [`App::push_byte`]: the same frames, handled in the same
+    /// order, as byte by byte.
+    pub fn push_bytes_until_end<W: FnMut(&[u8])>(&mut self, bytes: &[u8], out: &mut W) -> usize {
+        let mut taken = 0;
+        while let Some(rest) = bytes.get(taken..) {
+            let run = self.rx.take_run(rest);
+            taken += run;
+            let Some(&b) = rest.get(run) else {
+                break;
+            };
+            taken += 1;
+            self.push_byte(b, out);
+            if self.ended {
+                break;
+            }
         }
+        taken
     }
 
     /// Takes every increment `source` has ready (an SPI sensor, for instance) into the
@@ -452,9 +476,14 @@ impl App {
         self.send_status(out);
     }
 
-    fn handle<W: FnMut(&[u8])>(&mut self, msg: &Message, out: &mut W) {
-        match msg {
-            Message::Config(c) => self.configure(c),
+    /// The frame the receiver has just accepted (in `self.frame`): its message is copied
+    /// out of the slot (a few words; a Config whole) before it is handled.
+    fn handle<W: FnMut(&[u8])>(&mut self, out: &mut W) {
+        match &self.frame.message {
+            Message::Config(c) => {
+                let c = *c;
+                self.configure(&c)
+            }
             Message::ImuSample(m) => {
                 self.last_t = m.t;
                 if self.engine.is_none() {
@@ -468,13 +497,14 @@ impl App {
             }
             Message::MasterNav(m) => {
                 self.last_t = m.t;
+                // Converted first: the slot is borrowed until then.
+                let nav = m.to_engine();
                 self.drain_replay(out);
                 let Some(engine) = self.engine.as_mut() else {
                     self.counters.no_engine = self.counters.no_engine.wrapping_add(1);
                     return;
                 };
                 let mut reports = StepReports::new();
-                let nav = m.to_engine();
                 self.watch.observe_master(&nav);
                 let pushed = engine.push_master(nav, &mut reports);
                 // Matches made before an overflow refusal are reported all the same.
@@ -973,6 +1003,37 @@ mod tests {
         assert_eq!(c.config_refused, 1);
         assert_eq!(c.no_engine, 5);
         assert!(app.engine().is_none());
+    }
+
+    #[test]
+    fn runs_of_bytes_are_handled_as_bytes_and_stop_after_end() {
+        let mut bytes = encode_all(&stream(30, config(1, 3))).concat();
+        let end_at = bytes.len();
+        // After the End: the start of another stream, not to be taken.
+        bytes.extend(encode_all(&stream(3, config(1, 1))).concat());
+        let mut one = std::boxed::Box::new(App::new());
+        let mut sent_one = std::vec::Vec::new();
+        for b in &bytes {
+            one.push_byte(*b, &mut |f: &[u8]| sent_one.extend_from_slice(f));
+            if one.ended() {
+                break;
+            }
+        }
+        for run in [1, 2, 7, 42, 95, 512, bytes.len()] {
+            let mut app = std::boxed::Box::new(App::new());
+            let mut sent = std::vec::Vec::new();
+            let mut taken = 0;
+            for chunk in bytes.chunks(run) {
+                taken += app.push_bytes_until_end(chunk, &mut |f: &[u8]| sent.extend_from_slice(f));
+                if app.ended() {
+                    break;
+                }
+            }
+            assert_eq!(taken, end_at, "runs of {run}");
+            assert_eq!(sent, sent_one, "runs of {run}");
+            assert_eq!(app.counters(), one.counters());
+            assert_eq!(app.link_counters(), one.link_counters());
+        }
     }
 
     #[test]

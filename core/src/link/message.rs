@@ -1047,26 +1047,29 @@ impl Message {
     }
 
     /// Parses and validates a payload of the given kind.
-    #[inline(always)]
     pub fn read_payload(kind: MessageKind, payload: &[u8]) -> Result<Self, PayloadError> {
-        Self::read_payload_of::<{ MessageKind::EVERY }>(kind, payload)
+        let mut msg = Message::End(EndMsg { t: 0.0 });
+        Self::read_payload_into::<{ MessageKind::EVERY }>(kind, payload, &mut msg)?;
+        Ok(msg)
     }
 
-    /// [`Message::read_payload`] compiled for the kinds in `PARSE` only (a set of
+    /// [`Message::read_payload`] into `out` (each kind's fields written in place: a
+    /// message returned by value was copied whole, 240 bytes, at every layer of the
+    /// board's receiver), compiled for the kinds in `PARSE` only (a set of
     /// [`MessageKind::bit`]s, [`MessageKind::in_set`]); a kind not in it is refused as
     /// [`PayloadError::BadLength`] (the caller tests the kind first). With a constant set
-    /// the other kinds' parsing is not compiled in.
+    /// the other kinds' parsing is not compiled in. On an error `out` holds any message.
     #[inline(always)]
-    pub fn read_payload_of<const PARSE: u8>(
+    pub fn read_payload_into<const PARSE: u8>(
         kind: MessageKind,
         payload: &[u8],
-    ) -> Result<Self, PayloadError> {
+        out: &mut Self,
+    ) -> Result<(), PayloadError> {
         if payload.len() != kind.payload_len() {
             return Err(PayloadError::BadLength);
         }
-        let msg = Self::parse::<PARSE>(kind, payload).ok_or(PayloadError::BadLength)??;
-        msg.validate()?;
-        Ok(msg)
+        Self::parse::<PARSE>(kind, payload, out).ok_or(PayloadError::BadLength)??;
+        out.validate()
     }
 
     /// Each arm's guard is a constant: the arms of the kinds not in `PARSE` are not
@@ -1075,10 +1078,11 @@ impl Message {
     fn parse<const PARSE: u8>(
         kind: MessageKind,
         payload: &[u8],
-    ) -> Option<Result<Self, PayloadError>> {
+        out: &mut Self,
+    ) -> Option<Result<(), PayloadError>> {
         let takes = |k: MessageKind| k.in_set(PARSE);
         let mut r = Reader { rest: payload };
-        let msg = match kind {
+        *out = match kind {
             MessageKind::MasterNav if takes(MessageKind::MasterNav) => {
                 let t = r.f64()?;
                 let q_bm_n = r.f64s()?;
@@ -1271,7 +1275,7 @@ impl Message {
             _ => return None,
         };
         if r.rest.is_empty() {
-            Some(Ok(msg))
+            Some(Ok(()))
         } else {
             None
         }

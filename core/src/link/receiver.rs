@@ -98,39 +98,52 @@ impl<const PARSE: u8> Receiver<PARSE> {
         }
     }
 
-    /// Feeds one byte (see [`Decoder::push`] for the guarantees). A byte inside a frame
-    /// is buffered here, inlined into the caller ([`Decoder::take`]); the rest, a frame's
-    /// end above all, in [`Receiver::push_end`].
-    #[inline(always)]
+    /// Feeds one byte (see [`Decoder::push`] for the guarantees).
     pub fn push(&mut self, byte: u8) -> Option<Result<Received, LinkError>> {
+        let mut frame = Frame::EMPTY;
+        match self.push_into(byte, &mut frame)? {
+            Ok(missed) => Some(Ok(Received { frame, missed })),
+            Err(e) => Some(Err(e)),
+        }
+    }
+
+    /// [`Receiver::push`] into `frame`: a frame that passed every check is written there
+    /// in place (`Some(Ok(missed))`, the messages of its stream missed just before it);
+    /// after anything else `frame` holds any frame. A byte inside a frame is buffered
+    /// here, inlined into the caller ([`Decoder::take`]); the rest, a frame's end above
+    /// all, in [`Receiver::push_end`].
+    #[inline(always)]
+    pub fn push_into(&mut self, byte: u8, frame: &mut Frame) -> Option<Result<u16, LinkError>> {
         if self.decoder.take(byte) {
             return None;
         }
-        self.push_end(byte)
+        self.push_end(byte, frame)
     }
 
-    /// [`Receiver::push`] of a byte [`Decoder::take`] did not take.
+    /// The leading bytes of `bytes` inside a frame, buffered at once (see
+    /// [`Decoder::take_run`]); returns how many. The next byte, if any, goes to
+    /// [`Receiver::push_into`].
+    #[inline(always)]
+    pub fn take_run(&mut self, bytes: &[u8]) -> usize {
+        self.decoder.take_run(bytes)
+    }
+
+    /// [`Receiver::push_into`] of a byte [`Decoder::take`] did not take.
     #[inline(never)]
-    fn push_end(&mut self, byte: u8) -> Option<Result<Received, LinkError>> {
-        let frame = match self.decoder.push_parsing::<PARSE>(byte)? {
-            Ok(frame) => frame,
+    fn push_end(&mut self, byte: u8, frame: &mut Frame) -> Option<Result<u16, LinkError>> {
+        let (kind, seq, t, parsed) = match self.decoder.push_into::<PARSE>(byte, frame)? {
+            Ok(()) => (frame.message.kind(), frame.seq, frame.message.time(), true),
             Err(DecodeError::NotParsed { kind, seq, t_bits }) => {
-                let tracker = self.trackers.get_mut(kind.stream_index())?;
-                return Some(match tracker.check(seq, f64::from_bits(t_bits)) {
-                    Ok(_) => Err(LinkError::NotParsed { kind }),
-                    Err(error) => Err(LinkError::Sequence { kind, error }),
-                });
+                (kind, seq, f64::from_bits(t_bits), false)
             }
             Err(e) => return Some(Err(LinkError::Decode(e))),
         };
-        let kind = frame.message.kind();
         let tracker = self.trackers.get_mut(kind.stream_index())?;
-        Some(
-            tracker
-                .check(frame.seq, frame.message.time())
-                .map(|missed| Received { frame, missed })
-                .map_err(|error| LinkError::Sequence { kind, error }),
-        )
+        Some(match tracker.check(seq, t) {
+            Ok(missed) if parsed => Ok(missed),
+            Ok(_) => Err(LinkError::NotParsed { kind }),
+            Err(error) => Err(LinkError::Sequence { kind, error }),
+        })
     }
 
     /// The decoder's and all streams' counters.
