@@ -624,13 +624,19 @@ impl App {
         };
         let flags = HealthFlags::from_engine(&e.health(), &e.counters());
         let est = e.estimates();
-        let blocks = e.effect_estimates();
+        let augmented = matches!(e, BoardEngine::Augmented(_));
         if self.send(
             &Message::Estimates(EstimatesMsg::from_engine(&est, flags)),
             out,
         ) {
             self.counters.estimates_sent = self.counters.estimates_sent.wrapping_add(1);
         }
+        // The declared model has no effects (and no Effects frame): its empty list is not
+        // built (a copy of the list's whole capacity, 0.3k instructions an update).
+        let Some(e) = self.engine.as_ref().filter(|_| augmented) else {
+            return;
+        };
+        let blocks = e.effect_estimates();
         let mut page = 0;
         while let Some(m) = EffectsMsg::from_estimates(est.t, &blocks, page) {
             if self.send(&Message::Effects(m), out) {

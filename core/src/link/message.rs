@@ -1082,198 +1082,212 @@ impl Message {
     ) -> Option<Result<(), PayloadError>> {
         let takes = |k: MessageKind| k.in_set(PARSE);
         let mut r = Reader { rest: payload };
-        *out = match kind {
+        match kind {
             MessageKind::MasterNav if takes(MessageKind::MasterNav) => {
-                let t = r.f64()?;
-                let q_bm_n = r.f64s()?;
-                let v_n = r.f32s()?;
-                let lat_rad = r.f64()?;
-                let lon_rad = r.f64()?;
-                let height_m = r.f32()?;
-                let flags = r.u8()?;
-                let rate_bytes: [u8; 12] = r.bytes()?;
-                let w_ib_bm = match flags {
-                    FLAG_RATE => {
-                        let mut rr = Reader { rest: &rate_bytes };
-                        Some(rr.f32s()?)
-                    }
-                    0 if rate_bytes == [0u8; 12] => None,
-                    _ => return Some(Err(PayloadError::BadValue)),
-                };
-                Message::MasterNav(MasterNavMsg {
-                    t,
-                    q_bm_n,
-                    v_n,
-                    lat_rad,
-                    lon_rad,
-                    height_m,
-                    w_ib_bm,
-                })
+                *out = {
+                    let t = r.f64()?;
+                    let q_bm_n = r.f64s()?;
+                    let v_n = r.f32s()?;
+                    let lat_rad = r.f64()?;
+                    let lon_rad = r.f64()?;
+                    let height_m = r.f32()?;
+                    let flags = r.u8()?;
+                    let rate_bytes: [u8; 12] = r.bytes()?;
+                    let w_ib_bm = match flags {
+                        FLAG_RATE => {
+                            let mut rr = Reader { rest: &rate_bytes };
+                            Some(rr.f32s()?)
+                        }
+                        0 if rate_bytes == [0u8; 12] => None,
+                        _ => return Some(Err(PayloadError::BadValue)),
+                    };
+                    Message::MasterNav(MasterNavMsg {
+                        t,
+                        q_bm_n,
+                        v_n,
+                        lat_rad,
+                        lon_rad,
+                        height_m,
+                        w_ib_bm,
+                    })
+                }
             }
             MessageKind::ImuSample if takes(MessageKind::ImuSample) => {
-                Message::ImuSample(ImuSampleMsg {
-                    t: r.f64()?,
-                    dtheta_b: r.f32s()?,
-                    dv_b: r.f32s()?,
-                })
+                *out = {
+                    Message::ImuSample(ImuSampleMsg {
+                        t: r.f64()?,
+                        dtheta_b: r.f32s()?,
+                        dv_b: r.f32s()?,
+                    })
+                }
             }
             MessageKind::Estimates if takes(MessageKind::Estimates) => {
-                Message::Estimates(EstimatesMsg {
-                    t: r.f64()?,
-                    gyro_bias: r.f32s()?,
-                    gyro_bias_sigma: r.f32s()?,
-                    accel_bias: r.f32s()?,
-                    accel_bias_sigma: r.f32s()?,
-                    misalignment: r.f32s()?,
-                    misalignment_sigma: r.f32s()?,
-                    flexure: r.f32s()?,
-                    flexure_sigma: r.f32s()?,
-                    health: HealthFlags(u16::from_le_bytes(r.bytes()?)),
-                })
+                *out = {
+                    Message::Estimates(EstimatesMsg {
+                        t: r.f64()?,
+                        gyro_bias: r.f32s()?,
+                        gyro_bias_sigma: r.f32s()?,
+                        accel_bias: r.f32s()?,
+                        accel_bias_sigma: r.f32s()?,
+                        misalignment: r.f32s()?,
+                        misalignment_sigma: r.f32s()?,
+                        flexure: r.f32s()?,
+                        flexure_sigma: r.f32s()?,
+                        health: HealthFlags(u16::from_le_bytes(r.bytes()?)),
+                    })
+                }
             }
             MessageKind::Status if takes(MessageKind::Status) => {
-                let t = r.f64()?;
-                let mut c = [0u32; STATUS_COUNTERS];
-                for slot in c.iter_mut() {
-                    *slot = r.u32()?;
+                *out = {
+                    let t = r.f64()?;
+                    let mut c = [0u32; STATUS_COUNTERS];
+                    for slot in c.iter_mut() {
+                        *slot = r.u32()?;
+                    }
+                    let mut m = status_from_counters(t, &c);
+                    let nis = r.f32s()?;
+                    let whiteness = r.f32s()?;
+                    let [lm, t2, estimate, sigma] = r.f32s()?;
+                    let windows = u16::from_le_bytes(r.bytes()?);
+                    let (kind, detail) = (r.u8()?, r.u8()?);
+                    let Some(verdict) = verdict_of(kind, detail) else {
+                        return Some(Err(PayloadError::BadValue));
+                    };
+                    m.watch = WatchReport {
+                        nis,
+                        whiteness,
+                        delay: ScoreFigures {
+                            lm,
+                            t2,
+                            estimate,
+                            sigma,
+                        },
+                        windows,
+                        verdict,
+                    };
+                    Message::Status(m)
                 }
-                let mut m = status_from_counters(t, &c);
-                let nis = r.f32s()?;
-                let whiteness = r.f32s()?;
-                let [lm, t2, estimate, sigma] = r.f32s()?;
-                let windows = u16::from_le_bytes(r.bytes()?);
-                let (kind, detail) = (r.u8()?, r.u8()?);
-                let Some(verdict) = verdict_of(kind, detail) else {
-                    return Some(Err(PayloadError::BadValue));
-                };
-                m.watch = WatchReport {
-                    nis,
-                    whiteness,
-                    delay: ScoreFigures {
-                        lm,
-                        t2,
-                        estimate,
-                        sigma,
-                    },
-                    windows,
-                    verdict,
-                };
-                Message::Status(m)
             }
             MessageKind::Config if takes(MessageKind::Config) => {
-                let t = r.f64()?;
-                let filter_period_s = r.f64()?;
-                let flags = r.u8()?;
-                let bending = match r.u8()? {
-                    0 => LeverBending::Paper,
-                    1 => LeverBending::UniformArc,
-                    _ => return Some(Err(PayloadError::BadValue)),
-                };
-                if flags & !CFG_ALL != 0 {
-                    return Some(Err(PayloadError::BadValue));
-                }
-                let lever_arm_m = r.f32s()?;
-                let flexure_period_s = r.f64()?;
-                let flexure = [r.f32s()?, r.f32s()?, r.f32s()?];
-                let process_noise = r.f32s()?;
-                let measurement_noise = [r.f32s()?, r.f32s()?, r.f32s()?];
-                let initial_sigma = r.f32s()?;
-                let initial_misalignment_rad = r.f32s()?;
-                let gate_sigma = r.f32()?;
-                let variance_floor = r.f32()?;
-                let estimates_every = u16::from_le_bytes(r.bytes()?);
-                let status_every = u16::from_le_bytes(r.bytes()?);
-                let count = r.u8()?;
-                if usize::from(count) > MAX_EFFECTS {
-                    return Some(Err(PayloadError::BadEffects(EffectsError::TooMany {
-                        count,
-                    })));
-                }
-                let mut effects = [None; MAX_EFFECTS];
-                for (i, slot) in effects.iter_mut().enumerate() {
-                    let code = r.u8()?;
-                    let prior_sigma = r.f32()?;
-                    if i < usize::from(count) {
-                        match Effect::from_code(code) {
-                            Some(effect) => {
-                                *slot = Some(EffectPrior {
-                                    effect,
-                                    prior_sigma,
-                                })
-                            }
-                            None => {
-                                return Some(Err(PayloadError::BadEffects(
-                                    EffectsError::UnknownCode { code },
-                                )))
-                            }
-                        }
-                    } else if code != 0 || prior_sigma.to_bits() != 0 {
-                        return Some(Err(PayloadError::BadEffects(EffectsError::UnusedSlot)));
+                *out = {
+                    let t = r.f64()?;
+                    let filter_period_s = r.f64()?;
+                    let flags = r.u8()?;
+                    let bending = match r.u8()? {
+                        0 => LeverBending::Paper,
+                        1 => LeverBending::UniformArc,
+                        _ => return Some(Err(PayloadError::BadValue)),
+                    };
+                    if flags & !CFG_ALL != 0 {
+                        return Some(Err(PayloadError::BadValue));
                     }
+                    let lever_arm_m = r.f32s()?;
+                    let flexure_period_s = r.f64()?;
+                    let flexure = [r.f32s()?, r.f32s()?, r.f32s()?];
+                    let process_noise = r.f32s()?;
+                    let measurement_noise = [r.f32s()?, r.f32s()?, r.f32s()?];
+                    let initial_sigma = r.f32s()?;
+                    let initial_misalignment_rad = r.f32s()?;
+                    let gate_sigma = r.f32()?;
+                    let variance_floor = r.f32()?;
+                    let estimates_every = u16::from_le_bytes(r.bytes()?);
+                    let status_every = u16::from_le_bytes(r.bytes()?);
+                    let count = r.u8()?;
+                    if usize::from(count) > MAX_EFFECTS {
+                        return Some(Err(PayloadError::BadEffects(EffectsError::TooMany {
+                            count,
+                        })));
+                    }
+                    let mut effects = [None; MAX_EFFECTS];
+                    for (i, slot) in effects.iter_mut().enumerate() {
+                        let code = r.u8()?;
+                        let prior_sigma = r.f32()?;
+                        if i < usize::from(count) {
+                            match Effect::from_code(code) {
+                                Some(effect) => {
+                                    *slot = Some(EffectPrior {
+                                        effect,
+                                        prior_sigma,
+                                    })
+                                }
+                                None => {
+                                    return Some(Err(PayloadError::BadEffects(
+                                        EffectsError::UnknownCode { code },
+                                    )))
+                                }
+                            }
+                        } else if code != 0 || prior_sigma.to_bits() != 0 {
+                            return Some(Err(PayloadError::BadEffects(EffectsError::UnusedSlot)));
+                        }
+                    }
+                    let initial_delay_s = r.f32()?;
+                    let master_error_correlation_s = r.f32()?;
+                    let kinds = r.u8()?;
+                    if kinds & !0b111 != 0 {
+                        return Some(Err(PayloadError::BadValue));
+                    }
+                    let flexure_second_order = [0, 1, 2].map(|k| kinds & (1 << k) != 0);
+                    let lever_arm_rate_noise = r.f32()?;
+                    Message::Config(ConfigMsg {
+                        t,
+                        filter_period_s,
+                        matching: Matching {
+                            velocity: flags & CFG_VELOCITY != 0,
+                            attitude: flags & CFG_ATTITUDE != 0,
+                            angular_rate: flags & CFG_RATE != 0,
+                        },
+                        dynamic_lever_arm: flags & CFG_DYNAMIC_LEVER_ARM != 0,
+                        bending,
+                        lever_arm_m,
+                        flexure_period_s,
+                        flexure,
+                        flexure_second_order,
+                        lever_arm_rate_noise,
+                        process_noise,
+                        measurement_noise,
+                        initial_sigma,
+                        initial_misalignment_rad,
+                        gate_sigma,
+                        variance_floor,
+                        estimates_every,
+                        status_every,
+                        effects,
+                        initial_delay_s,
+                        master_error_correlation_s,
+                    })
                 }
-                let initial_delay_s = r.f32()?;
-                let master_error_correlation_s = r.f32()?;
-                let kinds = r.u8()?;
-                if kinds & !0b111 != 0 {
-                    return Some(Err(PayloadError::BadValue));
-                }
-                let flexure_second_order = [0, 1, 2].map(|k| kinds & (1 << k) != 0);
-                let lever_arm_rate_noise = r.f32()?;
-                Message::Config(ConfigMsg {
-                    t,
-                    filter_period_s,
-                    matching: Matching {
-                        velocity: flags & CFG_VELOCITY != 0,
-                        attitude: flags & CFG_ATTITUDE != 0,
-                        angular_rate: flags & CFG_RATE != 0,
-                    },
-                    dynamic_lever_arm: flags & CFG_DYNAMIC_LEVER_ARM != 0,
-                    bending,
-                    lever_arm_m,
-                    flexure_period_s,
-                    flexure,
-                    flexure_second_order,
-                    lever_arm_rate_noise,
-                    process_noise,
-                    measurement_noise,
-                    initial_sigma,
-                    initial_misalignment_rad,
-                    gate_sigma,
-                    variance_floor,
-                    estimates_every,
-                    status_every,
-                    effects,
-                    initial_delay_s,
-                    master_error_correlation_s,
-                })
             }
-            MessageKind::End if takes(MessageKind::End) => Message::End(EndMsg { t: r.f64()? }),
+            MessageKind::End if takes(MessageKind::End) => {
+                *out = Message::End(EndMsg { t: r.f64()? })
+            }
             MessageKind::Effects if takes(MessageKind::Effects) => {
-                let t = r.f64()?;
-                let mut layout = [None; MAX_EFFECTS];
-                for slot in layout.iter_mut() {
-                    let code = r.u8()?;
-                    if code != 0 {
-                        match Effect::from_code(code) {
-                            Some(e) => *slot = Some(e),
-                            None => {
-                                return Some(Err(PayloadError::BadEffects(
-                                    EffectsError::UnknownCode { code },
-                                )))
+                *out = {
+                    let t = r.f64()?;
+                    let mut layout = [None; MAX_EFFECTS];
+                    for slot in layout.iter_mut() {
+                        let code = r.u8()?;
+                        if code != 0 {
+                            match Effect::from_code(code) {
+                                Some(e) => *slot = Some(e),
+                                None => {
+                                    return Some(Err(PayloadError::BadEffects(
+                                        EffectsError::UnknownCode { code },
+                                    )))
+                                }
                             }
                         }
                     }
+                    Message::Effects(EffectsMsg {
+                        t,
+                        layout,
+                        page: r.u8()?,
+                        value: r.f32s()?,
+                        sigma: r.f32s()?,
+                    })
                 }
-                Message::Effects(EffectsMsg {
-                    t,
-                    layout,
-                    page: r.u8()?,
-                    value: r.f32s()?,
-                    sigma: r.f32s()?,
-                })
             }
             _ => return None,
-        };
+        }
         if r.rest.is_empty() {
             Some(Ok(()))
         } else {
