@@ -31,22 +31,31 @@ pub const fn max_encoded_len(n: usize) -> usize {
 /// Encodes `src` into `dst` (no delimiters written). Returns the encoded length, or
 /// `None` if `dst` is too small (then `dst` holds garbage).
 ///
-/// A block at a time: the next zero (or the 254th byte) found, then the block's bytes
-/// copied in one loop (a byte at a time with a branch per byte cost 21 instructions a
-/// byte on the board).
+/// A block at a time: the block's bytes copied up to its zero (or its 254th byte) in one
+/// loop, its code byte written after (a byte at a time with the code's bookkeeping per
+/// byte cost 21 instructions a byte on the board).
 pub fn encode(src: &[u8], dst: &mut [u8]) -> Option<usize> {
     let mut out = 0usize;
     let mut rest = src;
     loop {
         let limit = rest.len().min(254);
         let head = rest.get(..limit)?;
-        let run = head.iter().position(|b| *b == 0).unwrap_or(limit);
-        let (code, data) = dst.get_mut(out..out + 1 + run)?.split_first_mut()?;
+        // The block's bytes copied while its zero is looked for (one pass).
+        let (code, room) = dst.get_mut(out..)?.split_first_mut()?;
+        let mut run = 0;
+        for (d, s) in room.iter_mut().zip(head) {
+            if *s == 0 {
+                break;
+            }
+            *d = *s;
+            run += 1;
+        }
+        if head.get(run).is_some_and(|b| *b != 0) {
+            // The copy stopped at the end of `dst`, not at a zero or the block's end.
+            return None;
+        }
         // run ≤ 254: the code byte is at most 0xFF.
         *code = (run + 1) as u8;
-        for (d, s) in data.iter_mut().zip(head) {
-            *d = *s;
-        }
         out += 1 + run;
         if run < limit {
             // A zero: the block's implicit one. A zero at the very end leaves an empty
