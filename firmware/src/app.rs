@@ -43,8 +43,8 @@ use flexcal_core::engine::{
 use flexcal_core::ident::{ArIdentifier, Criterion};
 use flexcal_core::kalman::Health;
 use flexcal_core::link::{
-    ConfigMsg, EffectsMsg, Encoder, EstimatesMsg, HealthFlags, LinkCounters, Message, Receiver,
-    StatusMsg, MAX_FRAME_LEN,
+    ConfigMsg, EffectsMsg, Encoder, EstimatesMsg, Frame, HealthFlags, LinkCounters, LinkError,
+    Message, MessageKind, Receiver, StatusMsg, MAX_FRAME_LEN,
 };
 use flexcal_core::model::{N, TH};
 use flexcal_core::probe::{self, Phase};
@@ -294,7 +294,12 @@ pub struct AxisFit {
 /// the stack.
 #[derive(Clone, Debug)]
 pub struct App {
-    rx: Receiver,
+    /// Parses the host-to-board kinds only: a board-to-host frame is checked, sequenced
+    /// and counted ([`AppCounters::unexpected`]) without its payload being read.
+    rx: Receiver<{ MessageKind::TO_BOARD }>,
+    /// The frame the receiver parses into (in place: a message passed by value was copied
+    /// whole, 240 bytes, at each layer).
+    frame: Frame,
     tx: Encoder,
     engine: Option<BoardEngine>,
     config: Option<ConfigMsg>,
@@ -319,7 +324,8 @@ impl App {
     /// No engine yet: the first Config message creates it.
     pub fn new() -> Self {
         Self {
-            rx: Receiver::new(),
+            rx: Receiver::parsing(),
+            frame: Frame::EMPTY,
             tx: Encoder::new(),
             engine: None,
             config: None,
@@ -335,8 +341,11 @@ impl App {
     /// Feeds one received byte; frames to send go to `out` (one call per frame).
     pub fn push_byte<W: FnMut(&[u8])>(&mut self, byte: u8, out: &mut W) {
         let _phase = probe::enter(Phase::Link);
-        match self.rx.push(byte) {
-            Some(Ok(r)) => self.handle(&r.frame.message, out),
+        match self.rx.push_into(byte, &mut self.frame) {
+            Some(Ok(_)) => self.handle(out),
+            Some(Err(LinkError::NotParsed { .. })) => {
+                self.counters.unexpected = self.counters.unexpected.wrapping_add(1);
+            }
             Some(Err(_e)) => {
                 debug!("link: frame refused");
             }
@@ -346,9 +355,29 @@ impl App {
 
     /// Feeds a run of received bytes.
     pub fn push_bytes<W: FnMut(&[u8])>(&mut self, bytes: &[u8], out: &mut W) {
-        for b in bytes {
-            self.push_byte(*b, out);
+        self.push_bytes_until_end(bytes, out);
+    }
+
+    /// Feeds a run of received bytes up to the end of the first frame that ends the run
+    /// ([`App::ended`]); returns how many were taken (all of them if none did). A frame's
+    /// bytes before its delimiter are buffered in one loop ([`Receiver::take_run`]), the
+    /// delimiter goes through [`App::push_byte`]: the same frames, handled in the same
+    /// order, as byte by byte.
+    pub fn push_bytes_until_end<W: FnMut(&[u8])>(&mut self, bytes: &[u8], out: &mut W) -> usize {
+        let mut taken = 0;
+        while let Some(rest) = bytes.get(taken..) {
+            let run = self.rx.take_run(rest);
+            taken += run;
+            let Some(&b) = rest.get(run) else {
+                break;
+            };
+            taken += 1;
+            self.push_byte(b, out);
+            if self.ended {
+                break;
+            }
         }
+        taken
     }
 
     /// Takes every increment `source` has ready (an SPI sensor, for instance) into the
@@ -447,9 +476,14 @@ impl App {
         self.send_status(out);
     }
 
-    fn handle<W: FnMut(&[u8])>(&mut self, msg: &Message, out: &mut W) {
-        match msg {
-            Message::Config(c) => self.configure(c),
+    /// The frame the receiver has just accepted (in `self.frame`): its message is copied
+    /// out of the slot (a few words; a Config whole) before it is handled.
+    fn handle<W: FnMut(&[u8])>(&mut self, out: &mut W) {
+        match &self.frame.message {
+            Message::Config(c) => {
+                let c = *c;
+                self.configure(&c)
+            }
             Message::ImuSample(m) => {
                 self.last_t = m.t;
                 if self.engine.is_none() {
@@ -463,13 +497,14 @@ impl App {
             }
             Message::MasterNav(m) => {
                 self.last_t = m.t;
+                // Converted first: the slot is borrowed until then.
+                let nav = m.to_engine();
                 self.drain_replay(out);
                 let Some(engine) = self.engine.as_mut() else {
                     self.counters.no_engine = self.counters.no_engine.wrapping_add(1);
                     return;
                 };
                 let mut reports = StepReports::new();
-                let nav = m.to_engine();
                 self.watch.observe_master(&nav);
                 let pushed = engine.push_master(nav, &mut reports);
                 // Matches made before an overflow refusal are reported all the same.
@@ -589,13 +624,19 @@ impl App {
         };
         let flags = HealthFlags::from_engine(&e.health(), &e.counters());
         let est = e.estimates();
-        let blocks = e.effect_estimates();
+        let augmented = matches!(e, BoardEngine::Augmented(_));
         if self.send(
             &Message::Estimates(EstimatesMsg::from_engine(&est, flags)),
             out,
         ) {
             self.counters.estimates_sent = self.counters.estimates_sent.wrapping_add(1);
         }
+        // The declared model has no effects (and no Effects frame): its empty list is not
+        // built (a copy of the list's whole capacity, 0.3k instructions an update).
+        let Some(e) = self.engine.as_ref().filter(|_| augmented) else {
+            return;
+        };
+        let blocks = e.effect_estimates();
         let mut page = 0;
         while let Some(m) = EffectsMsg::from_estimates(est.t, &blocks, page) {
             if self.send(&Message::Effects(m), out) {
@@ -968,6 +1009,66 @@ mod tests {
         assert_eq!(c.config_refused, 1);
         assert_eq!(c.no_engine, 5);
         assert!(app.engine().is_none());
+    }
+
+    #[test]
+    fn runs_of_bytes_are_handled_as_bytes_and_stop_after_end() {
+        let mut bytes = encode_all(&stream(30, config(1, 3))).concat();
+        let end_at = bytes.len();
+        // After the End: the start of another stream, not to be taken.
+        bytes.extend(encode_all(&stream(3, config(1, 1))).concat());
+        let mut one = std::boxed::Box::new(App::new());
+        let mut sent_one = std::vec::Vec::new();
+        for b in &bytes {
+            one.push_byte(*b, &mut |f: &[u8]| sent_one.extend_from_slice(f));
+            if one.ended() {
+                break;
+            }
+        }
+        for run in [1, 2, 7, 42, 95, 512, bytes.len()] {
+            let mut app = std::boxed::Box::new(App::new());
+            let mut sent = std::vec::Vec::new();
+            let mut taken = 0;
+            for chunk in bytes.chunks(run) {
+                taken += app.push_bytes_until_end(chunk, &mut |f: &[u8]| sent.extend_from_slice(f));
+                if app.ended() {
+                    break;
+                }
+            }
+            assert_eq!(taken, end_at, "runs of {run}");
+            assert_eq!(sent, sent_one, "runs of {run}");
+            assert_eq!(app.counters(), one.counters());
+            assert_eq!(app.link_counters(), one.link_counters());
+        }
+    }
+
+    #[test]
+    fn board_to_host_frames_are_counted_not_parsed() {
+        let mut msgs = stream(20, config(1, 0));
+        // The board's own Estimates and Status echoed back (a looped-back line), between
+        // the host's messages: counted as unexpected, the run unchanged.
+        let (_, sent) = run_app(&encode_all(&msgs).concat());
+        let echoed: std::vec::Vec<Message> = sent
+            .iter()
+            .filter(|m| matches!(m, Message::Estimates(_) | Message::Status(_)))
+            .take(4)
+            .copied()
+            .collect();
+        assert_eq!(echoed.len(), 4);
+        let end = msgs.pop().unwrap();
+        let plain = encode_all(&msgs);
+        let mut bytes = plain.concat();
+        bytes.extend(encode_all(&echoed).concat());
+        bytes.extend(encode_all(&[end]).concat());
+        let (app, with_echo) = run_app(&bytes);
+        let (reference, _) = run_app(&encode_all(&stream(20, config(1, 0))).concat());
+        assert_eq!(app.counters().unexpected, 4);
+        assert_eq!(reference.counters().unexpected, 0);
+        let (a, r) = (app.link_counters(), reference.link_counters());
+        assert_eq!(a.decoder.frames, r.decoder.frames + 4);
+        assert_eq!(a.decoder.errors(), 0);
+        assert_eq!(a.sequence.accepted, r.sequence.accepted + 4);
+        assert_eq!(last_estimates(&with_echo), last_estimates(&sent));
     }
 
     /// A layout of 10 added states: time delay, lever-arm error, both scale factors.

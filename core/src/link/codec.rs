@@ -10,7 +10,7 @@
 
 use crate::link::cobs;
 use crate::link::crc32c::{crc32c, Crc32c};
-use crate::link::message::{EffectsError, Message, MessageKind, PayloadError};
+use crate::link::message::{EffectsError, EndMsg, Message, MessageKind, PayloadError};
 
 /// Bytes before the payload: type and sequence number.
 pub const HEADER_LEN: usize = 3;
@@ -41,6 +41,14 @@ pub struct Frame {
     pub seq: u16,
     /// The message.
     pub message: Message,
+}
+
+impl Frame {
+    /// A placeholder (an End at 0 s, sequence 0), the slot [`Decoder::push_into`] writes.
+    pub const EMPTY: Frame = Frame {
+        seq: 0,
+        message: Message::End(EndMsg { t: 0.0 }),
+    };
 }
 
 /// Why a message could not be encoded.
@@ -150,6 +158,19 @@ pub enum DecodeError {
         /// The payload length received.
         len: usize,
     },
+    /// A good frame (COBS, CRC, known type, its kind's payload length) of a kind the
+    /// caller does not parse ([`Decoder::push_parsing`]; the board: the board-to-host
+    /// kinds). Not an error: counted as a frame ([`DecoderCounters::frames`]); its payload
+    /// is not read beyond the time of validity.
+    NotParsed {
+        /// The frame's kind.
+        kind: MessageKind,
+        /// Its sequence number.
+        seq: u16,
+        /// The bits of its time of validity (`f64::from_bits`), the payload's first 8
+        /// bytes (every kind's `t`), not checked.
+        t_bits: u64,
+    },
     /// A good frame with a NaN or infinite float.
     NonFinite {
         /// The type byte.
@@ -224,6 +245,7 @@ impl DecoderCounters {
             DecodeError::BadLength { .. } => &mut self.bad_length,
             DecodeError::NonFinite { .. } => &mut self.non_finite,
             DecodeError::BadValue { .. } | DecodeError::BadEffects { .. } => &mut self.bad_value,
+            DecodeError::NotParsed { .. } => &mut self.frames,
         };
         *c = c.wrapping_add(1);
     }
@@ -307,8 +329,46 @@ impl Decoder {
         }
     }
 
+    /// The leading bytes of `bytes` that [`Decoder::take`] would take, taken: a frame's
+    /// bytes up to its delimiter (or up to the buffer's end), copied in one loop; returns
+    /// how many. The next byte, if any, is for [`Decoder::push`].
+    #[inline(always)]
+    pub fn take_run(&mut self, bytes: &[u8]) -> usize {
+        if self.discarding {
+            return bytes.iter().take_while(|b| **b != 0).count();
+        }
+        let room = self.buf.get_mut(self.len..).unwrap_or_default();
+        let mut n = 0;
+        for (slot, b) in room.iter_mut().zip(bytes) {
+            if *b == 0 {
+                break;
+            }
+            *slot = *b;
+            n += 1;
+        }
+        self.len += n;
+        n
+    }
+
     /// Feeds one byte; returns a frame or an error when one ends here.
     pub fn push(&mut self, byte: u8) -> Option<Result<Frame, DecodeError>> {
+        let mut frame = Frame::EMPTY;
+        match self.push_into::<{ MessageKind::EVERY }>(byte, &mut frame)? {
+            Ok(()) => Some(Ok(frame)),
+            Err(e) => Some(Err(e)),
+        }
+    }
+
+    /// [`Decoder::push`] into `frame` (written in place, valid when `Some(Ok(()))` comes
+    /// back), parsing only the kinds in `PARSE` (a set of [`MessageKind::bit`]s): a good
+    /// frame of another kind is checked (COBS, CRC, type, length) and counted as a frame,
+    /// and comes back as [`DecodeError::NotParsed`]. With a constant set the other kinds'
+    /// parsing is not linked (the board's receiver: Status, Estimates and Effects).
+    pub fn push_into<const PARSE: u8>(
+        &mut self,
+        byte: u8,
+        frame: &mut Frame,
+    ) -> Option<Result<(), DecodeError>> {
         if byte != 0 {
             if self.discarding {
                 return None;
@@ -331,22 +391,27 @@ impl Decoder {
         if core::mem::replace(&mut self.discarding, false) || len == 0 {
             return None;
         }
-        let result = self.decode(len);
+        let result = self.decode::<PARSE>(len, frame);
         match &result {
-            Ok(_) => self.counters.frames = self.counters.frames.wrapping_add(1),
+            Ok(()) => self.counters.frames = self.counters.frames.wrapping_add(1),
             Err(e) => self.counters.count(e),
         }
         Some(result)
     }
 
-    fn fail(&mut self, e: DecodeError) -> Result<Frame, DecodeError> {
+    fn fail(&mut self, e: DecodeError) -> Result<(), DecodeError> {
         self.counters.count(&e);
         Err(e)
     }
 
-    /// Unstuffs and checks the `len` buffered bytes.
+    /// Unstuffs and checks the `len` buffered bytes; parses them into `frame` if their
+    /// kind is in `PARSE`.
     #[inline(always)]
-    fn decode(&mut self, len: usize) -> Result<Frame, DecodeError> {
+    fn decode<const PARSE: u8>(
+        &mut self,
+        len: usize,
+        frame: &mut Frame,
+    ) -> Result<(), DecodeError> {
         let stuffed = self.buf.get_mut(..len).ok_or(DecodeError::Oversize)?;
         let n = cobs::decode_in_place(stuffed).map_err(|_| DecodeError::Cobs)?;
         let body = stuffed.get(..n).ok_or(DecodeError::Cobs)?;
@@ -365,19 +430,37 @@ impl Decoder {
             .ok_or(DecodeError::TooShort)?;
         let kind =
             MessageKind::from_type_byte(msg_type).ok_or(DecodeError::UnknownType(msg_type))?;
-        let message = Message::read_payload(kind, payload).map_err(|e| match e {
-            PayloadError::NonFinite => DecodeError::NonFinite { msg_type },
-            PayloadError::BadValue => DecodeError::BadValue { msg_type },
-            PayloadError::BadEffects(error) => DecodeError::BadEffects { msg_type, error },
-            PayloadError::BadLength => DecodeError::BadLength {
-                msg_type,
-                len: payload.len(),
+        let seq = u16::from_le_bytes([s0, s1]);
+        if !kind.in_set(PARSE) {
+            if payload.len() != kind.payload_len() {
+                return Err(DecodeError::BadLength {
+                    msg_type,
+                    len: payload.len(),
+                });
+            }
+            // Every kind's payload starts with its time of validity (8 bytes).
+            let t = payload
+                .first_chunk::<8>()
+                .map_or(u64::MAX, |b| u64::from_le_bytes(*b));
+            return Err(DecodeError::NotParsed {
+                kind,
+                seq,
+                t_bits: t,
+            });
+        }
+        Message::read_payload_into::<PARSE>(kind, payload, &mut frame.message).map_err(
+            |e| match e {
+                PayloadError::NonFinite => DecodeError::NonFinite { msg_type },
+                PayloadError::BadValue => DecodeError::BadValue { msg_type },
+                PayloadError::BadEffects(error) => DecodeError::BadEffects { msg_type, error },
+                PayloadError::BadLength => DecodeError::BadLength {
+                    msg_type,
+                    len: payload.len(),
+                },
             },
-        })?;
-        Ok(Frame {
-            seq: u16::from_le_bytes([s0, s1]),
-            message,
-        })
+        )?;
+        frame.seq = seq;
+        Ok(())
     }
 }
 
@@ -385,6 +468,8 @@ impl Decoder {
 mod tests {
     use super::*;
     use crate::link::message::{ImuSampleMsg, MasterNavMsg, StatusMsg};
+    extern crate std;
+    use std::vec::Vec;
 
     fn imu(t: f64) -> Message {
         Message::ImuSample(ImuSampleMsg {
@@ -432,6 +517,49 @@ mod tests {
         let m = cobs::encode(&body[..n + 4], &mut out[1..]).unwrap();
         out[m + 1] = 0;
         m + 2
+    }
+
+    #[test]
+    fn runs_decode_as_bytes() {
+        // Frames, garbage, an oversize run and idle zeros, fed byte by byte and in runs
+        // of every length up to 40 (`take_run`, then `push` of the byte it leaves).
+        let mut stream = [0u8; 2000];
+        let mut n = 0;
+        let mut put = |bytes: &[u8]| {
+            stream[n..n + bytes.len()].copy_from_slice(bytes);
+            n += bytes.len();
+        };
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        for (seq, m) in [imu(1.0), master(), imu(2.0)].iter().enumerate() {
+            let k = encode(seq as u16, m, &mut buf).unwrap();
+            put(&buf[..k]);
+            put(&[7, 0, 0]);
+        }
+        put(&[0x5A; 300]);
+        let k = encode(9, &imu(3.0), &mut buf).unwrap();
+        put(&buf[..k]);
+        let stream = &stream[..n];
+        let mut d = Decoder::new();
+        let by_byte: Vec<_> = stream.iter().filter_map(|b| d.push(*b)).collect();
+        assert_eq!(by_byte.iter().filter(|r| r.is_ok()).count(), 4);
+        assert!(by_byte.contains(&Err(DecodeError::Oversize)));
+        for run in 1..=40 {
+            let mut r = Decoder::new();
+            let mut got = Vec::new();
+            for chunk in stream.chunks(run) {
+                let mut rest = chunk;
+                while !rest.is_empty() {
+                    let t = r.take_run(rest);
+                    rest = &rest[t..];
+                    if let Some((b, tail)) = rest.split_first() {
+                        got.extend(r.push(*b));
+                        rest = tail;
+                    }
+                }
+            }
+            assert_eq!(got, by_byte, "runs of {run}");
+            assert_eq!(r.counters(), d.counters());
+        }
     }
 
     #[test]

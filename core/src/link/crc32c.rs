@@ -61,13 +61,27 @@ impl Crc32c {
     }
 
     /// Feeds bytes.
+    ///
+    /// Four bytes a turn with the one table: the CRC is linear, so the word's four bytes
+    /// are xored into the register at once and four table steps follow, each
+    /// `crc = (crc >> 8) ^ T[crc & 0xFF]` (byte by byte, each byte is xored in just
+    /// before its step: the same bits, since the later bytes only ride along through
+    /// the shifts). About 4 instructions a byte on the board instead of 7.
     pub fn update(&mut self, bytes: &[u8]) {
         let mut crc = self.state;
-        for &b in bytes {
-            let index = usize::from((crc as u8) ^ b);
-            // Always `Some`: a u8 index into a 256-entry table.
-            let t = TABLE.get(index).copied().unwrap_or(0);
-            crc = (crc >> 8) ^ t;
+        let mut words = bytes.chunks_exact(4);
+        for w in &mut words {
+            let mut word = [0u8; 4];
+            word.copy_from_slice(w);
+            crc ^= u32::from_le_bytes(word);
+            // Written out: `flexcal-core` is built for size, which does not unroll.
+            crc = (crc >> 8) ^ table(crc as u8);
+            crc = (crc >> 8) ^ table(crc as u8);
+            crc = (crc >> 8) ^ table(crc as u8);
+            crc = (crc >> 8) ^ table(crc as u8);
+        }
+        for &b in words.remainder() {
+            crc = (crc >> 8) ^ table((crc as u8) ^ b);
         }
         self.state = crc;
     }
@@ -76,6 +90,13 @@ impl Crc32c {
     pub const fn finish(&self) -> u32 {
         self.state ^ 0xFFFF_FFFF
     }
+}
+
+/// The table's entry for `index`.
+#[inline(always)]
+fn table(index: u8) -> u32 {
+    // Always `Some`: a u8 index into a 256-entry table.
+    TABLE.get(usize::from(index)).copied().unwrap_or(0)
 }
 
 /// CRC-32C of `bytes`.
@@ -135,6 +156,19 @@ mod tests {
         let data: [u8; 300] = core::array::from_fn(|i| (i * 7 + 3) as u8);
         for n in [0, 1, 2, 7, 100, 300] {
             assert_eq!(crc32c(&data[..n]), bitwise(&data[..n]));
+        }
+        // Every length and start (the word loop and the remainder), and pieces fed in
+        // splits that cut words.
+        for start in 0..8 {
+            for n in 0..120 {
+                let d = &data[start..start + n];
+                assert_eq!(crc32c(d), bitwise(d), "start {start} len {n}");
+                let mut c = Crc32c::new();
+                let (a, b) = d.split_at(n / 3);
+                c.update(a);
+                c.update(b);
+                assert_eq!(c.finish(), bitwise(d));
+            }
         }
     }
 

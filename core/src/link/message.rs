@@ -145,6 +145,38 @@ impl MessageKind {
         }
     }
 
+    /// Every kind: a set of kinds is a byte with bit [`MessageKind::stream_index`] set
+    /// for each of its kinds (a receiver's kinds to parse, [`crate::link::Receiver`]).
+    pub const EVERY: u8 = (1 << Self::COUNT) - 1;
+
+    /// The kinds a host sends to the board (type byte's bit 7 clear): MasterNav,
+    /// ImuSample, Config and End; the board's receiver parses these only.
+    pub const TO_BOARD: u8 = MessageKind::MasterNav.bit()
+        | MessageKind::ImuSample.bit()
+        | MessageKind::Config.bit()
+        | MessageKind::End.bit();
+
+    /// This kind's bit in a set of kinds ([`MessageKind::EVERY`]).
+    pub const fn bit(self) -> u8 {
+        1 << self.stream_index()
+    }
+
+    /// Whether this kind is in `set` (a set of [`MessageKind::bit`]s). A match with a
+    /// constant per arm: with a constant set the compiler sees which kinds pass (a test of
+    /// `bit()` it does not relate to the kind's other matches).
+    #[inline(always)]
+    pub const fn in_set(self, set: u8) -> bool {
+        match self {
+            MessageKind::MasterNav => set & MessageKind::MasterNav.bit() != 0,
+            MessageKind::ImuSample => set & MessageKind::ImuSample.bit() != 0,
+            MessageKind::Config => set & MessageKind::Config.bit() != 0,
+            MessageKind::End => set & MessageKind::End.bit() != 0,
+            MessageKind::Estimates => set & MessageKind::Estimates.bit() != 0,
+            MessageKind::Status => set & MessageKind::Status.bit() != 0,
+            MessageKind::Effects => set & MessageKind::Effects.bit() != 0,
+        }
+    }
+
     /// Index of this kind's stream, `0..COUNT` (sequence numbers are per stream).
     pub const fn stream_index(self) -> usize {
         match self {
@@ -1015,208 +1047,249 @@ impl Message {
     }
 
     /// Parses and validates a payload of the given kind.
-    #[inline(always)]
     pub fn read_payload(kind: MessageKind, payload: &[u8]) -> Result<Self, PayloadError> {
-        if payload.len() != kind.payload_len() {
-            return Err(PayloadError::BadLength);
-        }
-        let msg = Self::parse(kind, payload).ok_or(PayloadError::BadLength)??;
-        msg.validate()?;
+        let mut msg = Message::End(EndMsg { t: 0.0 });
+        Self::read_payload_into::<{ MessageKind::EVERY }>(kind, payload, &mut msg)?;
         Ok(msg)
     }
 
+    /// [`Message::read_payload`] into `out` (each kind's fields written in place: a
+    /// message returned by value was copied whole, 240 bytes, at every layer of the
+    /// board's receiver), compiled for the kinds in `PARSE` only (a set of
+    /// [`MessageKind::bit`]s, [`MessageKind::in_set`]); a kind not in it is refused as
+    /// [`PayloadError::BadLength`] (the caller tests the kind first). With a constant set
+    /// the other kinds' parsing is not compiled in. On an error `out` holds any message.
     #[inline(always)]
-    fn parse(kind: MessageKind, payload: &[u8]) -> Option<Result<Self, PayloadError>> {
+    pub fn read_payload_into<const PARSE: u8>(
+        kind: MessageKind,
+        payload: &[u8],
+        out: &mut Self,
+    ) -> Result<(), PayloadError> {
+        if payload.len() != kind.payload_len() {
+            return Err(PayloadError::BadLength);
+        }
+        Self::parse::<PARSE>(kind, payload, out).ok_or(PayloadError::BadLength)??;
+        out.validate()
+    }
+
+    /// Each arm's guard is a constant: the arms of the kinds not in `PARSE` are not
+    /// compiled in.
+    #[inline(always)]
+    fn parse<const PARSE: u8>(
+        kind: MessageKind,
+        payload: &[u8],
+        out: &mut Self,
+    ) -> Option<Result<(), PayloadError>> {
+        let takes = |k: MessageKind| k.in_set(PARSE);
         let mut r = Reader { rest: payload };
-        let msg = match kind {
-            MessageKind::MasterNav => {
-                let t = r.f64()?;
-                let q_bm_n = r.f64s()?;
-                let v_n = r.f32s()?;
-                let lat_rad = r.f64()?;
-                let lon_rad = r.f64()?;
-                let height_m = r.f32()?;
-                let flags = r.u8()?;
-                let rate_bytes: [u8; 12] = r.bytes()?;
-                let w_ib_bm = match flags {
-                    FLAG_RATE => {
-                        let mut rr = Reader { rest: &rate_bytes };
-                        Some(rr.f32s()?)
-                    }
-                    0 if rate_bytes == [0u8; 12] => None,
-                    _ => return Some(Err(PayloadError::BadValue)),
-                };
-                Message::MasterNav(MasterNavMsg {
-                    t,
-                    q_bm_n,
-                    v_n,
-                    lat_rad,
-                    lon_rad,
-                    height_m,
-                    w_ib_bm,
-                })
-            }
-            MessageKind::ImuSample => Message::ImuSample(ImuSampleMsg {
-                t: r.f64()?,
-                dtheta_b: r.f32s()?,
-                dv_b: r.f32s()?,
-            }),
-            MessageKind::Estimates => Message::Estimates(EstimatesMsg {
-                t: r.f64()?,
-                gyro_bias: r.f32s()?,
-                gyro_bias_sigma: r.f32s()?,
-                accel_bias: r.f32s()?,
-                accel_bias_sigma: r.f32s()?,
-                misalignment: r.f32s()?,
-                misalignment_sigma: r.f32s()?,
-                flexure: r.f32s()?,
-                flexure_sigma: r.f32s()?,
-                health: HealthFlags(u16::from_le_bytes(r.bytes()?)),
-            }),
-            MessageKind::Status => {
-                let t = r.f64()?;
-                let mut c = [0u32; STATUS_COUNTERS];
-                for slot in c.iter_mut() {
-                    *slot = r.u32()?;
-                }
-                let mut m = status_from_counters(t, &c);
-                let nis = r.f32s()?;
-                let whiteness = r.f32s()?;
-                let [lm, t2, estimate, sigma] = r.f32s()?;
-                let windows = u16::from_le_bytes(r.bytes()?);
-                let (kind, detail) = (r.u8()?, r.u8()?);
-                let Some(verdict) = verdict_of(kind, detail) else {
-                    return Some(Err(PayloadError::BadValue));
-                };
-                m.watch = WatchReport {
-                    nis,
-                    whiteness,
-                    delay: ScoreFigures {
-                        lm,
-                        t2,
-                        estimate,
-                        sigma,
-                    },
-                    windows,
-                    verdict,
-                };
-                Message::Status(m)
-            }
-            MessageKind::Config => {
-                let t = r.f64()?;
-                let filter_period_s = r.f64()?;
-                let flags = r.u8()?;
-                let bending = match r.u8()? {
-                    0 => LeverBending::Paper,
-                    1 => LeverBending::UniformArc,
-                    _ => return Some(Err(PayloadError::BadValue)),
-                };
-                if flags & !CFG_ALL != 0 {
-                    return Some(Err(PayloadError::BadValue));
-                }
-                let lever_arm_m = r.f32s()?;
-                let flexure_period_s = r.f64()?;
-                let flexure = [r.f32s()?, r.f32s()?, r.f32s()?];
-                let process_noise = r.f32s()?;
-                let measurement_noise = [r.f32s()?, r.f32s()?, r.f32s()?];
-                let initial_sigma = r.f32s()?;
-                let initial_misalignment_rad = r.f32s()?;
-                let gate_sigma = r.f32()?;
-                let variance_floor = r.f32()?;
-                let estimates_every = u16::from_le_bytes(r.bytes()?);
-                let status_every = u16::from_le_bytes(r.bytes()?);
-                let count = r.u8()?;
-                if usize::from(count) > MAX_EFFECTS {
-                    return Some(Err(PayloadError::BadEffects(EffectsError::TooMany {
-                        count,
-                    })));
-                }
-                let mut effects = [None; MAX_EFFECTS];
-                for (i, slot) in effects.iter_mut().enumerate() {
-                    let code = r.u8()?;
-                    let prior_sigma = r.f32()?;
-                    if i < usize::from(count) {
-                        match Effect::from_code(code) {
-                            Some(effect) => {
-                                *slot = Some(EffectPrior {
-                                    effect,
-                                    prior_sigma,
-                                })
-                            }
-                            None => {
-                                return Some(Err(PayloadError::BadEffects(
-                                    EffectsError::UnknownCode { code },
-                                )))
-                            }
+        match kind {
+            MessageKind::MasterNav if takes(MessageKind::MasterNav) => {
+                *out = {
+                    let t = r.f64()?;
+                    let q_bm_n = r.f64s()?;
+                    let v_n = r.f32s()?;
+                    let lat_rad = r.f64()?;
+                    let lon_rad = r.f64()?;
+                    let height_m = r.f32()?;
+                    let flags = r.u8()?;
+                    let rate_bytes: [u8; 12] = r.bytes()?;
+                    let w_ib_bm = match flags {
+                        FLAG_RATE => {
+                            let mut rr = Reader { rest: &rate_bytes };
+                            Some(rr.f32s()?)
                         }
-                    } else if code != 0 || prior_sigma.to_bits() != 0 {
-                        return Some(Err(PayloadError::BadEffects(EffectsError::UnusedSlot)));
-                    }
+                        0 if rate_bytes == [0u8; 12] => None,
+                        _ => return Some(Err(PayloadError::BadValue)),
+                    };
+                    Message::MasterNav(MasterNavMsg {
+                        t,
+                        q_bm_n,
+                        v_n,
+                        lat_rad,
+                        lon_rad,
+                        height_m,
+                        w_ib_bm,
+                    })
                 }
-                let initial_delay_s = r.f32()?;
-                let master_error_correlation_s = r.f32()?;
-                let kinds = r.u8()?;
-                if kinds & !0b111 != 0 {
-                    return Some(Err(PayloadError::BadValue));
-                }
-                let flexure_second_order = [0, 1, 2].map(|k| kinds & (1 << k) != 0);
-                let lever_arm_rate_noise = r.f32()?;
-                Message::Config(ConfigMsg {
-                    t,
-                    filter_period_s,
-                    matching: Matching {
-                        velocity: flags & CFG_VELOCITY != 0,
-                        attitude: flags & CFG_ATTITUDE != 0,
-                        angular_rate: flags & CFG_RATE != 0,
-                    },
-                    dynamic_lever_arm: flags & CFG_DYNAMIC_LEVER_ARM != 0,
-                    bending,
-                    lever_arm_m,
-                    flexure_period_s,
-                    flexure,
-                    flexure_second_order,
-                    lever_arm_rate_noise,
-                    process_noise,
-                    measurement_noise,
-                    initial_sigma,
-                    initial_misalignment_rad,
-                    gate_sigma,
-                    variance_floor,
-                    estimates_every,
-                    status_every,
-                    effects,
-                    initial_delay_s,
-                    master_error_correlation_s,
-                })
             }
-            MessageKind::End => Message::End(EndMsg { t: r.f64()? }),
-            MessageKind::Effects => {
-                let t = r.f64()?;
-                let mut layout = [None; MAX_EFFECTS];
-                for slot in layout.iter_mut() {
-                    let code = r.u8()?;
-                    if code != 0 {
-                        match Effect::from_code(code) {
-                            Some(e) => *slot = Some(e),
-                            None => {
-                                return Some(Err(PayloadError::BadEffects(
-                                    EffectsError::UnknownCode { code },
-                                )))
+            MessageKind::ImuSample if takes(MessageKind::ImuSample) => {
+                *out = {
+                    Message::ImuSample(ImuSampleMsg {
+                        t: r.f64()?,
+                        dtheta_b: r.f32s()?,
+                        dv_b: r.f32s()?,
+                    })
+                }
+            }
+            MessageKind::Estimates if takes(MessageKind::Estimates) => {
+                *out = {
+                    Message::Estimates(EstimatesMsg {
+                        t: r.f64()?,
+                        gyro_bias: r.f32s()?,
+                        gyro_bias_sigma: r.f32s()?,
+                        accel_bias: r.f32s()?,
+                        accel_bias_sigma: r.f32s()?,
+                        misalignment: r.f32s()?,
+                        misalignment_sigma: r.f32s()?,
+                        flexure: r.f32s()?,
+                        flexure_sigma: r.f32s()?,
+                        health: HealthFlags(u16::from_le_bytes(r.bytes()?)),
+                    })
+                }
+            }
+            MessageKind::Status if takes(MessageKind::Status) => {
+                *out = {
+                    let t = r.f64()?;
+                    let mut c = [0u32; STATUS_COUNTERS];
+                    for slot in c.iter_mut() {
+                        *slot = r.u32()?;
+                    }
+                    let mut m = status_from_counters(t, &c);
+                    let nis = r.f32s()?;
+                    let whiteness = r.f32s()?;
+                    let [lm, t2, estimate, sigma] = r.f32s()?;
+                    let windows = u16::from_le_bytes(r.bytes()?);
+                    let (kind, detail) = (r.u8()?, r.u8()?);
+                    let Some(verdict) = verdict_of(kind, detail) else {
+                        return Some(Err(PayloadError::BadValue));
+                    };
+                    m.watch = WatchReport {
+                        nis,
+                        whiteness,
+                        delay: ScoreFigures {
+                            lm,
+                            t2,
+                            estimate,
+                            sigma,
+                        },
+                        windows,
+                        verdict,
+                    };
+                    Message::Status(m)
+                }
+            }
+            MessageKind::Config if takes(MessageKind::Config) => {
+                *out = {
+                    let t = r.f64()?;
+                    let filter_period_s = r.f64()?;
+                    let flags = r.u8()?;
+                    let bending = match r.u8()? {
+                        0 => LeverBending::Paper,
+                        1 => LeverBending::UniformArc,
+                        _ => return Some(Err(PayloadError::BadValue)),
+                    };
+                    if flags & !CFG_ALL != 0 {
+                        return Some(Err(PayloadError::BadValue));
+                    }
+                    let lever_arm_m = r.f32s()?;
+                    let flexure_period_s = r.f64()?;
+                    let flexure = [r.f32s()?, r.f32s()?, r.f32s()?];
+                    let process_noise = r.f32s()?;
+                    let measurement_noise = [r.f32s()?, r.f32s()?, r.f32s()?];
+                    let initial_sigma = r.f32s()?;
+                    let initial_misalignment_rad = r.f32s()?;
+                    let gate_sigma = r.f32()?;
+                    let variance_floor = r.f32()?;
+                    let estimates_every = u16::from_le_bytes(r.bytes()?);
+                    let status_every = u16::from_le_bytes(r.bytes()?);
+                    let count = r.u8()?;
+                    if usize::from(count) > MAX_EFFECTS {
+                        return Some(Err(PayloadError::BadEffects(EffectsError::TooMany {
+                            count,
+                        })));
+                    }
+                    let mut effects = [None; MAX_EFFECTS];
+                    for (i, slot) in effects.iter_mut().enumerate() {
+                        let code = r.u8()?;
+                        let prior_sigma = r.f32()?;
+                        if i < usize::from(count) {
+                            match Effect::from_code(code) {
+                                Some(effect) => {
+                                    *slot = Some(EffectPrior {
+                                        effect,
+                                        prior_sigma,
+                                    })
+                                }
+                                None => {
+                                    return Some(Err(PayloadError::BadEffects(
+                                        EffectsError::UnknownCode { code },
+                                    )))
+                                }
                             }
+                        } else if code != 0 || prior_sigma.to_bits() != 0 {
+                            return Some(Err(PayloadError::BadEffects(EffectsError::UnusedSlot)));
                         }
                     }
+                    let initial_delay_s = r.f32()?;
+                    let master_error_correlation_s = r.f32()?;
+                    let kinds = r.u8()?;
+                    if kinds & !0b111 != 0 {
+                        return Some(Err(PayloadError::BadValue));
+                    }
+                    let flexure_second_order = [0, 1, 2].map(|k| kinds & (1 << k) != 0);
+                    let lever_arm_rate_noise = r.f32()?;
+                    Message::Config(ConfigMsg {
+                        t,
+                        filter_period_s,
+                        matching: Matching {
+                            velocity: flags & CFG_VELOCITY != 0,
+                            attitude: flags & CFG_ATTITUDE != 0,
+                            angular_rate: flags & CFG_RATE != 0,
+                        },
+                        dynamic_lever_arm: flags & CFG_DYNAMIC_LEVER_ARM != 0,
+                        bending,
+                        lever_arm_m,
+                        flexure_period_s,
+                        flexure,
+                        flexure_second_order,
+                        lever_arm_rate_noise,
+                        process_noise,
+                        measurement_noise,
+                        initial_sigma,
+                        initial_misalignment_rad,
+                        gate_sigma,
+                        variance_floor,
+                        estimates_every,
+                        status_every,
+                        effects,
+                        initial_delay_s,
+                        master_error_correlation_s,
+                    })
                 }
-                Message::Effects(EffectsMsg {
-                    t,
-                    layout,
-                    page: r.u8()?,
-                    value: r.f32s()?,
-                    sigma: r.f32s()?,
-                })
             }
-        };
+            MessageKind::End if takes(MessageKind::End) => {
+                *out = Message::End(EndMsg { t: r.f64()? })
+            }
+            MessageKind::Effects if takes(MessageKind::Effects) => {
+                *out = {
+                    let t = r.f64()?;
+                    let mut layout = [None; MAX_EFFECTS];
+                    for slot in layout.iter_mut() {
+                        let code = r.u8()?;
+                        if code != 0 {
+                            match Effect::from_code(code) {
+                                Some(e) => *slot = Some(e),
+                                None => {
+                                    return Some(Err(PayloadError::BadEffects(
+                                        EffectsError::UnknownCode { code },
+                                    )))
+                                }
+                            }
+                        }
+                    }
+                    Message::Effects(EffectsMsg {
+                        t,
+                        layout,
+                        page: r.u8()?,
+                        value: r.f32s()?,
+                        sigma: r.f32s()?,
+                    })
+                }
+            }
+            _ => return None,
+        }
         if r.rest.is_empty() {
-            Some(Ok(msg))
+            Some(Ok(()))
         } else {
             None
         }
@@ -1640,7 +1713,14 @@ mod tests {
         for (i, k) in MessageKind::ALL.into_iter().enumerate() {
             assert_eq!(k.stream_index(), i);
             assert_eq!(MessageKind::from_type_byte(k.type_byte()), Some(k));
+            assert_ne!(MessageKind::EVERY & k.bit(), 0);
+            // The board parses exactly the kinds whose type byte has bit 7 clear.
+            assert_eq!(
+                MessageKind::TO_BOARD & k.bit() != 0,
+                k.type_byte() & 0x80 == 0
+            );
         }
+        assert_eq!(MessageKind::EVERY.count_ones() as usize, MessageKind::COUNT);
         let known = (0..=255u8)
             .filter(|b| MessageKind::from_type_byte(*b).is_some())
             .count();

@@ -35,12 +35,22 @@ pub enum LinkError {
         /// Why.
         error: SequenceError,
     },
+    /// A good frame, accepted by its stream's sequence tracker, of a kind this receiver
+    /// does not parse ([`Receiver::parsing`]; the board's: the board-to-host kinds).
+    NotParsed {
+        /// The frame's kind.
+        kind: MessageKind,
+    },
 }
 
 /// Decoder plus per-stream sequence checks. The streams that feed the engine
 /// (MasterNav, ImuSample) also require a strictly increasing time of validity.
+///
+/// `PARSE`: the kinds whose payloads are parsed (a set of [`MessageKind::bit`]s; every
+/// kind by default). A good frame of another kind is checked, counted and sequenced as
+/// any other, and reported as [`LinkError::NotParsed`]; its parsing code is not linked.
 #[derive(Clone, Debug)]
-pub struct Receiver {
+pub struct Receiver<const PARSE: u8 = { MessageKind::EVERY }> {
     decoder: Decoder,
     trackers: [SequenceTracker; MessageKind::COUNT],
 }
@@ -52,8 +62,16 @@ impl Default for Receiver {
 }
 
 impl Receiver {
-    /// A receiver with no history.
+    /// A receiver with no history, parsing every kind.
     pub const fn new() -> Self {
+        Self::parsing()
+    }
+}
+
+impl<const PARSE: u8> Receiver<PARSE> {
+    /// A receiver with no history, parsing the kinds in `PARSE` (the board's:
+    /// `Receiver::<{ MessageKind::TO_BOARD }>::parsing()`).
+    pub const fn parsing() -> Self {
         Self {
             decoder: Decoder::new(),
             trackers: [
@@ -80,32 +98,52 @@ impl Receiver {
         }
     }
 
-    /// Feeds one byte (see [`Decoder::push`] for the guarantees). A byte inside a frame
-    /// is buffered here, inlined into the caller ([`Decoder::take`]); the rest, a frame's
-    /// end above all, in [`Receiver::push_end`].
-    #[inline(always)]
+    /// Feeds one byte (see [`Decoder::push`] for the guarantees).
     pub fn push(&mut self, byte: u8) -> Option<Result<Received, LinkError>> {
+        let mut frame = Frame::EMPTY;
+        match self.push_into(byte, &mut frame)? {
+            Ok(missed) => Some(Ok(Received { frame, missed })),
+            Err(e) => Some(Err(e)),
+        }
+    }
+
+    /// [`Receiver::push`] into `frame`: a frame that passed every check is written there
+    /// in place (`Some(Ok(missed))`, the messages of its stream missed just before it);
+    /// after anything else `frame` holds any frame. A byte inside a frame is buffered
+    /// here, inlined into the caller ([`Decoder::take`]); the rest, a frame's end above
+    /// all, in [`Receiver::push_end`].
+    #[inline(always)]
+    pub fn push_into(&mut self, byte: u8, frame: &mut Frame) -> Option<Result<u16, LinkError>> {
         if self.decoder.take(byte) {
             return None;
         }
-        self.push_end(byte)
+        self.push_end(byte, frame)
     }
 
-    /// [`Receiver::push`] of a byte [`Decoder::take`] did not take.
+    /// The leading bytes of `bytes` inside a frame, buffered at once (see
+    /// [`Decoder::take_run`]); returns how many. The next byte, if any, goes to
+    /// [`Receiver::push_into`].
+    #[inline(always)]
+    pub fn take_run(&mut self, bytes: &[u8]) -> usize {
+        self.decoder.take_run(bytes)
+    }
+
+    /// [`Receiver::push_into`] of a byte [`Decoder::take`] did not take.
     #[inline(never)]
-    fn push_end(&mut self, byte: u8) -> Option<Result<Received, LinkError>> {
-        let frame = match self.decoder.push(byte)? {
-            Ok(frame) => frame,
+    fn push_end(&mut self, byte: u8, frame: &mut Frame) -> Option<Result<u16, LinkError>> {
+        let (kind, seq, t, parsed) = match self.decoder.push_into::<PARSE>(byte, frame)? {
+            Ok(()) => (frame.message.kind(), frame.seq, frame.message.time(), true),
+            Err(DecodeError::NotParsed { kind, seq, t_bits }) => {
+                (kind, seq, f64::from_bits(t_bits), false)
+            }
             Err(e) => return Some(Err(LinkError::Decode(e))),
         };
-        let kind = frame.message.kind();
         let tracker = self.trackers.get_mut(kind.stream_index())?;
-        Some(
-            tracker
-                .check(frame.seq, frame.message.time())
-                .map(|missed| Received { frame, missed })
-                .map_err(|error| LinkError::Sequence { kind, error }),
-        )
+        Some(match tracker.check(seq, t) {
+            Ok(missed) if parsed => Ok(missed),
+            Ok(_) => Err(LinkError::NotParsed { kind }),
+            Err(error) => Err(LinkError::Sequence { kind, error }),
+        })
     }
 
     /// The decoder's and all streams' counters.
@@ -138,6 +176,8 @@ mod tests {
     use super::*;
     use crate::link::codec::{encode, MAX_FRAME_LEN};
     use crate::link::message::{EstimatesMsg, HealthFlags, ImuSampleMsg, Message};
+    extern crate std;
+    use std::vec::Vec;
 
     fn imu(t: f64) -> Message {
         Message::ImuSample(ImuSampleMsg {
@@ -211,6 +251,70 @@ mod tests {
             rx.tracker(MessageKind::ImuSample).unwrap().last(),
             Some((10, 2.0))
         );
+    }
+
+    #[test]
+    fn a_board_receiver_checks_and_sequences_what_it_does_not_parse() {
+        let est = |t, flexure: f32| {
+            Message::Estimates(EstimatesMsg {
+                t,
+                gyro_bias: [0.0; 3],
+                gyro_bias_sigma: [0.0; 3],
+                accel_bias: [0.0; 3],
+                accel_bias_sigma: [0.0; 3],
+                misalignment: [0.0; 3],
+                misalignment_sigma: [0.0; 3],
+                flexure: [flexure; 3],
+                flexure_sigma: [0.0; 3],
+                health: HealthFlags(0),
+            })
+        };
+        let mut board = Receiver::<{ MessageKind::TO_BOARD }>::parsing();
+        let mut host = Receiver::new();
+        let mut feed = |seq: u16, m: &Message| {
+            let mut buf = [0u8; MAX_FRAME_LEN];
+            let n = encode(seq, m, &mut buf).unwrap();
+            let (mut b, mut h) = (None, None);
+            for byte in &buf[..n] {
+                b = board.push(*byte).or(b);
+                h = host.push(*byte).or(h);
+            }
+            (b.unwrap(), h.unwrap())
+        };
+        // Host-to-board kinds: both parse them alike.
+        let (b, h) = feed(0, &imu(1.0));
+        assert_eq!(b, h);
+        assert_eq!(b.unwrap().frame.message, imu(1.0));
+        // Board-to-host kinds: checked and sequenced, not parsed by the board.
+        let (b, h) = feed(3, &est(2.0, 0.5));
+        assert_eq!(
+            b,
+            Err(LinkError::NotParsed {
+                kind: MessageKind::Estimates
+            })
+        );
+        assert_eq!(h.unwrap().frame.message, est(2.0, 0.5));
+        let (b, _) = feed(3, &est(2.0, 0.5));
+        assert_eq!(
+            b,
+            Err(LinkError::Sequence {
+                kind: MessageKind::Estimates,
+                error: SequenceError::Duplicate
+            })
+        );
+        assert_eq!(
+            board.tracker(MessageKind::Estimates).unwrap().last(),
+            Some((3, 2.0))
+        );
+        assert_eq!(board.counters(), host.counters());
+        // A damaged frame of a kind not parsed is refused as any other.
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let n = encode(4, &est(3.0, 0.5), &mut buf).unwrap();
+        buf[5] ^= 0x10;
+        let got: Vec<_> = buf[..n].iter().filter_map(|b| board.push(*b)).collect();
+        assert_eq!(got, [Err(LinkError::Decode(DecodeError::Crc))]);
+        assert_eq!(board.counters().decoder.crc, 1);
+        assert_eq!(board.counters().decoder.frames, 3);
     }
 
     #[test]

@@ -69,7 +69,7 @@ pub struct Args {
     /// Run QEMU with `-icount shift=0` (deterministic virtual time, for the cost figures).
     #[arg(long)]
     pub icount: bool,
-    /// With `--icount`: run the board's sampling profiler instead of timing each byte
+    /// With `--icount`: run the board's sampling profiler instead of timing each read
     /// (`profile-*` samples per phase in `summary.json`, the split printed).
     #[arg(long, requires = "icount")]
     pub profile: bool,
@@ -226,7 +226,7 @@ pub enum Timing {
     /// Real time; the firmware's SysTick figures are not meaningful.
     Wall,
     /// `-icount shift=0`: one nanosecond of virtual time per instruction; the firmware
-    /// times each received byte (`systick-busy`).
+    /// times the processing of each transport read (`systick-busy`).
     Icount,
     /// `-icount shift=0` and the firmware's sampling profiler (`profile-*` per phase).
     Profile,
