@@ -223,7 +223,11 @@ mod tests {
                 for (k, got) in c.iter().enumerate() {
                     let lag = w.get(k..).unwrap_or_default();
                     let want = w.iter().zip(lag).map(|(a, b)| a * b).sum::<f64>() / n as f64;
-                    assert_eq!(got.to_bits(), want.to_bits(), "n {n}, order {order}, lag {k}");
+                    assert_eq!(
+                        got.to_bits(),
+                        want.to_bits(),
+                        "n {n}, order {order}, lag {k}"
+                    );
                 }
             }
         }

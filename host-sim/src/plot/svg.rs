@@ -134,15 +134,27 @@ mod tests {
             push_tenths(&mut got, v);
             assert_eq!(got, format!("{v:.1}"), "{v:e} ({:#x})", v.to_bits());
         };
-        for v in [0.0, -0.0, 0.04, -0.04, 0.05, -0.05, 0.25, 0.35, 0.45, 2.25, 1e11, -1e11] {
+        for v in [
+            0.0, -0.0, 0.04, -0.04, 0.05, -0.05, 0.25, 0.35, 0.45, 2.25, 1e11, -1e11,
+        ] {
             check(v);
         }
-        for v in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, f64::MAX, f64::MIN_POSITIVE] {
+        for v in [
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::MAX,
+            f64::MIN_POSITIVE,
+        ] {
             check(v);
         }
         for k in -50_000i64..50_000 {
             let half = (k as f64 + 0.5) / 10.0;
-            for v in [half, f64::from_bits(half.to_bits() + 1), f64::from_bits(half.to_bits() - 1)] {
+            for v in [
+                half,
+                f64::from_bits(half.to_bits() + 1),
+                f64::from_bits(half.to_bits() - 1),
+            ] {
                 check(v);
             }
             check(k as f64 / 20.0);
