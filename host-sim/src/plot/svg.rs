@@ -74,7 +74,9 @@ const TENTHS_TIE_MARGIN: f64 = 1e-3;
 /// written for every negative value, zero included, as `{:.1}` writes it.
 fn push_tenths(out: &mut String, v: f64) {
     let a = 10.0 * v.abs();
-    if !(a < TENTHS_FAST_BELOW) || (a - a.floor() - 0.5).abs() <= TENTHS_TIE_MARGIN {
+    // `a` is NaN for a NaN `v`: not fast.
+    let fast = a < TENTHS_FAST_BELOW && (a - a.floor() - 0.5).abs() > TENTHS_TIE_MARGIN;
+    if !fast {
         // Writing into a String cannot fail.
         let _ = write!(out, "{v:.1}");
         return;

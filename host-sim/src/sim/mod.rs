@@ -78,10 +78,21 @@ pub struct Fixed {
 }
 
 /// The slave's true attitude, rate, velocity and position, given the master's
-/// attitude, the Earth model at the master's position (`earth_m`: its trig evaluated
-/// once, the free functions' values bit for bit) and the flexure angle and (left-limit)
-/// rate.
+/// attitude and position and the flexure angle and (left-limit) rate.
 pub fn slave_truth(
+    fx: &Fixed,
+    master: &motion::MasterAttitude,
+    pos_m: &Position<f64>,
+    theta: &Vector3<f64>,
+    theta_rate: &Vector3<f64>,
+) -> SlaveTruth {
+    slave_truth_at(fx, master, &Local::at(pos_m), theta, theta_rate)
+}
+
+/// [`slave_truth`] with the Earth model at the master's position (`earth_m`: its trig
+/// evaluated once, the free functions' values bit for bit in `f64`), for the simulator's
+/// sub-steps, which share one position.
+fn slave_truth_at(
     fx: &Fixed,
     master: &motion::MasterAttitude,
     earth_m: &Local<f64>,
@@ -289,7 +300,7 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
         let t = s as f64 * h;
         let m = sc.motion.attitude(t);
         let (th, thd) = flex.at_boundary(s);
-        (m, th, thd, slave_truth(&fx, &m, earth_m, &th, &thd))
+        (m, th, thd, slave_truth_at(&fx, &m, earth_m, &th, &thd))
     };
     let (_, _, _, mut prev) = boundary(0, &earth_m);
     let (tau0, tau_rate) = (und.master_delay_s, und.master_delay_rate);
@@ -363,7 +374,7 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
             let t_mid = (s as f64 + 0.5) * h;
             let m_mid = sc.motion.attitude(t_mid);
             let (th_mid, thd_mid) = flex.at_mid(s);
-            let mid = slave_truth(&fx, &m_mid, &earth_m, &th_mid, &thd_mid);
+            let mid = slave_truth_at(&fx, &m_mid, &earth_m, &th_mid, &thd_mid);
             // Advance the master position over the sub-step.
             let dp = earth_m.position_rate(&fx.v_m) * h;
             pos_m.lat_rad += dp.x;
