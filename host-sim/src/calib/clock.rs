@@ -212,10 +212,20 @@ struct Score {
 /// moved by `tau` (see the module doc), and the blocks it used; `None` with fewer than
 /// `MIN_BLOCKS`.
 fn score(blocks: &[Block], slave: &SlaveAngles, tau: f64) -> Option<Score> {
+    // Consecutive blocks share an end: the slave's sum there, read for one block's end,
+    // serves the next one's start (`SlaveAngles::rotation` of each block, halved).
+    let mut end: Option<(u64, Vector3<f64>)> = None;
     let pairs: Vec<(Vector3<f64>, Vector3<f64>)> = blocks
         .iter()
         .filter_map(|k| {
-            let s = slave.rotation(k.a - tau, k.b - tau)? / (k.b - k.a);
+            let (a, b) = (k.a - tau, k.b - tau);
+            let at_a = match end {
+                Some((x, v)) if x == a.to_bits() => Some(v),
+                _ => slave.at(a),
+            };
+            let at_b = slave.at(b);
+            end = at_b.map(|v| (b.to_bits(), v));
+            let s = (at_b? - at_a?) / (k.b - k.a);
             Some((k.rate, s))
         })
         .collect();

@@ -6,7 +6,8 @@ use crate::calib::residuals::{channel_residuals, ChannelResidual};
 use crate::calib::run::{run, run_with, CalibResult, Precision, RunOptions, CHANNELS};
 use crate::recording::Recording;
 use flexcal_core::augment::Effect;
-use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
 
 /// Warm-start passes a model with a time delay is run for at most: each starts from the
 /// previous pass's delay, so the delay's linearization holds from the first message.
@@ -173,27 +174,76 @@ pub fn with_holdout(
     Ok(eval)
 }
 
-/// Runs and checks one model.
+/// Runs and checks one model. Without a clock effect the run leaves the configuration
+/// as it is, so the held-out run needs nothing from it and the two run side by side (on
+/// a second thread); with one, the held-out run starts from the delay the run found.
 pub fn evaluate_model(
     rec: &Recording,
     cfg: &CalibConfig,
     fraction: f64,
 ) -> Result<ModelEval, String> {
-    with_holdout(rec, run_model(rec, cfg)?, fraction)
+    let clock = [Effect::TimeDelay, Effect::ClockDrift]
+        .iter()
+        .any(|c| cfg.effects.iter().any(|e| e == c.name()));
+    if clock {
+        return with_holdout(rec, run_model(rec, cfg)?, fraction);
+    }
+    let (eval, holdout) = std::thread::scope(|s| {
+        let h = s.spawn(|| holdout(rec, cfg, fraction));
+        let eval = run_model(rec, cfg);
+        let holdout = h
+            .join()
+            .unwrap_or_else(|_| Err("a held-out run panicked".to_string()));
+        (eval, holdout)
+    });
+    let mut eval = eval?;
+    eval.holdout = Some(holdout?);
+    Ok(eval)
+}
+
+/// `f` of every job `0..order.len()`, on as many threads as the machine has (at most one
+/// a job), each thread taking the next job of `order` as it finishes one: the longest
+/// first, so that no thread waits on a long job started last. The results are in job
+/// order, `None` for a job whose run panicked.
+fn in_parallel<R: Send>(order: &[usize], f: impl Fn(usize) -> R + Sync) -> Vec<Option<R>> {
+    let threads = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1)
+        .clamp(1, order.len().max(1));
+    let next = AtomicUsize::new(0);
+    let slots: Vec<Mutex<Option<R>>> = order.iter().map(|_| Mutex::new(None)).collect();
+    std::thread::scope(|s| {
+        let workers: Vec<_> = (0..threads)
+            .map(|_| {
+                s.spawn(|| {
+                    while let Some(&job) = order.get(next.fetch_add(1, Ordering::Relaxed)) {
+                        let r = f(job);
+                        if let Some(mut slot) = slots.get(job).and_then(|m| m.lock().ok()) {
+                            *slot = Some(r);
+                        }
+                    }
+                })
+            })
+            .collect();
+        // A panicked worker's job stays `None`; the others go on taking jobs.
+        for w in workers {
+            let _ = w.join();
+        }
+    });
+    slots
+        .into_iter()
+        .map(|m| m.into_inner().ok().flatten())
+        .collect()
 }
 
 /// Runs the current model with each candidate added, on as many threads as the machine
-/// has (results in candidate order).
+/// has (`in_parallel`; results in candidate order).
 pub fn run_candidates(
     rec: &Recording,
     current: &ModelEval,
     candidates: &[Effect],
     delay_start_s: Option<f64>,
 ) -> Result<Vec<Result<ModelEval, String>>, String> {
-    let threads = std::thread::available_parallelism()
-        .map(|n| n.get())
-        .unwrap_or(1)
-        .max(1);
     let configs: Vec<CalibConfig> = candidates
         .iter()
         .map(|e| {
@@ -218,23 +268,18 @@ pub fn run_candidates(
             c
         })
         .collect();
-    let mut out: Vec<Option<Result<ModelEval, String>>> = vec![None; configs.len()];
-    for (chunk_cfg, chunk_out) in configs.chunks(threads).zip(out.chunks_mut(threads)) {
-        std::thread::scope(|s| {
-            let handles: Vec<_> = chunk_cfg
-                .iter()
-                .map(|c| s.spawn(move || run_model(rec, c)))
-                .collect();
-            for (h, slot) in handles.into_iter().zip(chunk_out.iter_mut()) {
-                *slot = Some(
-                    h.join()
-                        .unwrap_or_else(|_| Err("a candidate run panicked".to_string())),
-                );
-            }
-        });
-    }
-    Ok(out
-        .into_iter()
-        .map(|o| o.unwrap_or_else(|| Err("not run".into())))
-        .collect())
+    // Clock effects run up to `DELAY_PASSES` times: started first, then the larger blocks.
+    let mut order: Vec<usize> = (0..candidates.len()).collect();
+    order.sort_by_key(|&k| {
+        candidates
+            .get(k)
+            .map(|e| (!e.is_clock(), std::cmp::Reverse(e.states())))
+    });
+    Ok(in_parallel(&order, |k| match configs.get(k) {
+        Some(c) => run_model(rec, c),
+        None => Err("not run".to_string()),
+    })
+    .into_iter()
+    .map(|o| o.unwrap_or_else(|| Err("a candidate run panicked".to_string())))
+    .collect())
 }

@@ -68,16 +68,50 @@ fn converged_from(rows: &[EstimateRow], q: &Quantity) -> usize {
         .map_or(0, |i| (i + 1).min(rows.len() - 1))
 }
 
-/// The value of truth column `col` at `t`, linearly interpolated.
-fn truth_at(times: &[f64], col: &[f64], t: f64) -> Option<f64> {
-    let k = times.partition_point(|&x| x < t);
+/// The value of truth column `col` at `t`, linearly interpolated between the times
+/// about index `k`, the first time at or after `t` (`times.partition_point(|&x| x < t)`).
+fn truth_at(times: &[f64], col: &[f64], t: f64, k: usize) -> Option<f64> {
     match (k.checked_sub(1), times.get(k)) {
         (_, Some(&tk)) if tk == t => col.get(k).copied(),
         (Some(j), Some(&tk)) => {
-            let (tj, vj, vk) = (times[j], col[j], *col.get(k)?);
+            let (tj, vj, vk) = (*times.get(j)?, *col.get(j)?, *col.get(k)?);
             Some(vj + (vk - vj) * (t - tj) / (tk - tj))
         }
         _ => None,
+    }
+}
+
+/// `times.partition_point(|&x| x < t)` for times asked in order: on sorted `times`, a
+/// time at or after the last one asked starts from the last answer and walks on (the
+/// rows and the truth advance together, a step or two each), which is the binary
+/// search's answer; unsorted times, or a time before the last, take the binary search.
+struct TimeCursor<'a> {
+    times: &'a [f64],
+    sorted: bool,
+    last: Option<(f64, usize)>,
+}
+
+impl<'a> TimeCursor<'a> {
+    fn new(times: &'a [f64]) -> Self {
+        Self {
+            times,
+            sorted: times.windows(2).all(|w| w[0] <= w[1]),
+            last: None,
+        }
+    }
+
+    fn index(&mut self, t: f64) -> usize {
+        let k = match self.last {
+            Some((last_t, mut k)) if self.sorted && t >= last_t => {
+                while self.times.get(k).is_some_and(|&x| x < t) {
+                    k += 1;
+                }
+                k
+            }
+            _ => self.times.partition_point(|&x| x < t),
+        };
+        self.last = Some((t, k));
+        k
     }
 }
 
@@ -141,8 +175,9 @@ fn error_panels(q: &Quantity, rows: &[EstimateRow], truth: &Truth) -> Option<Vec
     for (axis, name) in ["x", "y", "z"].iter().enumerate() {
         let col = truth.column(q.truth[axis])?;
         let (mut x, mut err, mut sig) = (Vec::new(), Vec::new(), Vec::new());
+        let mut cursor = TimeCursor::new(&truth.t);
         for r in rows {
-            if let Some(v) = truth_at(&truth.t, col, r.t) {
+            if let Some(v) = truth_at(&truth.t, col, r.t, cursor.index(r.t)) {
                 let (e, s) = (q.get)(r);
                 x.push(r.t);
                 err.push((e[axis] - v) * q.scale);
@@ -252,4 +287,45 @@ pub fn write_estimate_plots(
         }
     }
     Ok(written)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The cursor gives the binary search's index for times asked in order, out of
+    /// order, repeated, between and beyond the times, on sorted times with repeats and on
+    /// unsorted ones.
+    #[test]
+    fn the_time_cursor_is_the_binary_search() {
+        let sorted = [0.0, 0.5, 0.5, 1.0, 2.0, 2.0, 2.0, 3.5];
+        let unsorted = [0.0, 1.0, 0.5, 2.0, 1.5, 3.0];
+        let asked = [
+            -1.0,
+            0.0,
+            0.0,
+            0.25,
+            0.5,
+            0.75,
+            2.0,
+            1.0,
+            2.0,
+            2.5,
+            3.5,
+            4.0,
+            f64::NAN,
+            0.5,
+            9.0,
+        ];
+        for times in [&sorted[..], &unsorted[..], &[][..], &[1.0][..]] {
+            let mut cursor = TimeCursor::new(times);
+            for t in asked {
+                assert_eq!(
+                    cursor.index(t),
+                    times.partition_point(|&x| x < t),
+                    "{times:?} at {t}"
+                );
+            }
+        }
+    }
 }

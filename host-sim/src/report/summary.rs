@@ -176,12 +176,19 @@ fn nis_band(n: usize) -> [f64; 2] {
 /// `estimates.csv` being written, one row per filter update as the run goes.
 pub struct EstimatesCsv {
     f: std::io::BufWriter<std::fs::File>,
+    /// The row being set out, its allocation kept from row to row.
+    line: Vec<u8>,
 }
+
+/// The file's buffer: 31 MB for a 600 s run leave it in about a hundred writes
+/// instead of four thousand at the default 8 KiB.
+const ESTIMATES_BUFFER: usize = 1 << 18;
 
 impl EstimatesCsv {
     /// Creates the file and writes its header.
     pub fn create(path: &Path) -> std::io::Result<Self> {
-        let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+        let mut f =
+            std::io::BufWriter::with_capacity(ESTIMATES_BUFFER, std::fs::File::create(path)?);
         let mut header = vec!["t".to_string()];
         for (p, _) in FIELDS {
             for a in ["x", "y", "z"] {
@@ -192,23 +199,27 @@ impl EstimatesCsv {
             }
         }
         writeln!(f, "{}", header.join(","))?;
-        Ok(Self { f })
+        Ok(Self {
+            f,
+            line: Vec::with_capacity(24 * 24 + 1),
+        })
     }
 
     /// Writes one row: `t` as `{}` writes it, every other number as `{:e}` does
     /// ([`push_exp`]: the same bytes, in a fifth of the time).
     pub fn row(&mut self, r: &EstimateRow) -> std::io::Result<()> {
         write!(self.f, "{}", r.t)?;
-        let mut line = Vec::with_capacity(24 * 24 + 1);
+        let line = &mut self.line;
+        line.clear();
         for (_, get) in FIELDS {
             let (v, s) = get(r);
             for &x in v.iter().chain(s.iter()) {
                 line.push(b',');
-                push_exp(&mut line, x);
+                push_exp(line, x);
             }
         }
         line.push(b'\n');
-        self.f.write_all(&line)
+        self.f.write_all(line)
     }
 
     /// Flushes the file.

@@ -20,7 +20,7 @@ pub mod motion;
 pub mod scenario;
 
 use crate::recording::{ImuOutput, ImuSample, MasterMsg, Recording, RecordingMeta, Site, Truth};
-use flexcal_core::earth::{self, Position};
+use flexcal_core::earth::{Local, Position};
 use flexcal_core::model::LeverBending;
 use flexcal_core::rotation::{exp_so3, quat_exp, right_jacobian};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
@@ -78,7 +78,7 @@ pub struct Fixed {
 }
 
 /// The slave's true attitude, rate, velocity and position, given the master's
-/// attitude and the flexure angle and (left-limit) rate.
+/// attitude and position and the flexure angle and (left-limit) rate.
 pub fn slave_truth(
     fx: &Fixed,
     master: &motion::MasterAttitude,
@@ -86,10 +86,23 @@ pub fn slave_truth(
     theta: &Vector3<f64>,
     theta_rate: &Vector3<f64>,
 ) -> SlaveTruth {
+    slave_truth_at(fx, master, &Local::at(pos_m), theta, theta_rate)
+}
+
+/// [`slave_truth`] with the Earth model at the master's position (`earth_m`: its trig
+/// evaluated once, the free functions' values bit for bit in `f64`), for the simulator's
+/// sub-steps, which share one position.
+fn slave_truth_at(
+    fx: &Fixed,
+    master: &motion::MasterAttitude,
+    earth_m: &Local<f64>,
+    theta: &Vector3<f64>,
+    theta_rate: &Vector3<f64>,
+) -> SlaveTruth {
     let phi = fx.mu + theta;
     let c_bs_bm = exp_so3(&phi);
-    let w_ie = earth::earth_rate_n(pos_m.lat_rad);
-    let w_en = earth::transport_rate_n(pos_m, &fx.v_m);
+    let w_ie = earth_m.earth_rate_n();
+    let w_en = earth_m.transport_rate_n(&fx.v_m);
     let c_n_bm = master.c_bm_n.transpose();
     let w_ib_bm = master.w_nb_bm + c_n_bm * (w_ie + w_en);
     let w_eb_bm = master.w_nb_bm + c_n_bm * w_en;
@@ -100,8 +113,16 @@ pub fn slave_truth(
         c_bs_n: master.c_bm_n * c_bs_bm,
         w_ib_bs: c_bs_bm.transpose() * w_ib_bm + right_jacobian(&phi) * theta_rate,
         v_n,
-        pos: earth::offset_position(pos_m, &(master.c_bm_n * r)),
+        pos: earth_m.offset_position(&(master.c_bm_n * r)),
     }
+}
+
+/// Whether two positions are the same bits (`==` would take −0 for +0, whose sines
+/// differ in sign): the Earth model of one serves the other.
+fn same_bits(a: &Position<f64>, b: &Position<f64>) -> bool {
+    a.lat_rad.to_bits() == b.lat_rad.to_bits()
+        && a.lon_rad.to_bits() == b.lon_rad.to_bits()
+        && a.height_m.to_bits() == b.height_m.to_bits()
 }
 
 /// What a simulation produced.
@@ -273,13 +294,15 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
     let mut truth_t = Vec::new();
     let mut truth_cols: Vec<Vec<f64>> = vec![Vec::new(); varying_names.len()];
 
-    let boundary = |s: usize, pos_m: &Position<f64>| {
+    // The Earth model at the master's position, evaluated again only when it moves.
+    let mut earth_m = Local::at(&pos_m);
+    let boundary = |s: usize, earth_m: &Local<f64>| {
         let t = s as f64 * h;
         let m = sc.motion.attitude(t);
         let (th, thd) = flex.at_boundary(s);
-        (m, th, thd, slave_truth(&fx, &m, pos_m, &th, &thd))
+        (m, th, thd, slave_truth_at(&fx, &m, earth_m, &th, &thd))
     };
-    let (_, _, _, mut prev) = boundary(0, &pos_m);
+    let (_, _, _, mut prev) = boundary(0, &earth_m);
     let (tau0, tau_rate) = (und.master_delay_s, und.master_delay_rate);
     let mut smooth = sc
         .master
@@ -292,7 +315,7 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
         .map(master_steps::StepError::new);
     // The message stamped `t`, from the master's truth at `t − τ` (`pos_t`: at `t`).
     let mut emit_master = |t: f64,
-                           pos_t: &Position<f64>,
+                           earth_t: &Local<f64>,
                            th: &Vector3<f64>,
                            thd: &Vector3<f64>,
                            rng: &mut ChaCha8Rng| {
@@ -302,9 +325,10 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
             tau0 + tau_rate * t
         };
         let m = sc.motion.attitude(t - tau);
-        let pos = earth::offset_position(pos_t, &(-fx.v_m * tau));
-        let w_ie = earth::earth_rate_n(pos.lat_rad);
-        let w_en = earth::transport_rate_n(&pos, &fx.v_m);
+        let pos = Local::at(&earth_t.offset_position(&(-fx.v_m * tau)));
+        let w_ie = pos.earth_rate_n();
+        let w_en = pos.transport_rate_n(&fx.v_m);
+        let pos = pos.pos;
         let w_ib_bm = m.w_nb_bm + m.c_bm_n.transpose() * (w_ie + w_en);
         let mut q = UnitQuaternion::from_matrix(&m.c_bm_n)
             * quat_exp(&gauss3(rng, sc.master.attitude_noise_deg.to_radians()));
@@ -340,7 +364,7 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
     };
     {
         let (th, thd) = flex.at_boundary(0);
-        emit_master(0.0, &pos_m, &th, &thd, &mut rng);
+        emit_master(0.0, &earth_m, &th, &thd, &mut rng);
     }
     for i in 1..=n_imu {
         let mut dth = Vector3::zeros();
@@ -350,17 +374,21 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
             let t_mid = (s as f64 + 0.5) * h;
             let m_mid = sc.motion.attitude(t_mid);
             let (th_mid, thd_mid) = flex.at_mid(s);
-            let mid = slave_truth(&fx, &m_mid, &pos_m, &th_mid, &thd_mid);
+            let mid = slave_truth_at(&fx, &m_mid, &earth_m, &th_mid, &thd_mid);
             // Advance the master position over the sub-step.
-            let dp = earth::position_rate(&pos_m, &fx.v_m) * h;
+            let dp = earth_m.position_rate(&fx.v_m) * h;
             pos_m.lat_rad += dp.x;
             pos_m.lon_rad += dp.y;
             pos_m.height_m += dp.z;
-            let (_, _, _, next) = boundary(s + 1, &pos_m);
+            if !same_bits(&pos_m, &earth_m.pos) {
+                earth_m = Local::at(&pos_m);
+            }
+            let (_, _, _, next) = boundary(s + 1, &earth_m);
             // ∫ f^n dt = Δv − ∫ (g − (2ω_ie + ω_en) × v) dt, rotated to the body at mid-step.
-            let w_ie = earth::earth_rate_n(mid.pos.lat_rad);
-            let w_en = earth::transport_rate_n(&mid.pos, &mid.v_n);
-            let g = earth::gravity_n(&mid.pos);
+            let earth_mid = Local::at(&mid.pos);
+            let w_ie = earth_mid.earth_rate_n();
+            let w_en = earth_mid.transport_rate_n(&mid.v_n);
+            let g = earth_mid.gravity_n();
             let f_n_int = (next.v_n - prev.v_n) - (g - (w_ie * 2.0 + w_en).cross(&mid.v_n)) * h;
             dv += mid.c_bs_n.transpose() * f_n_int;
             dth += mid.w_ib_bs * h;
@@ -379,7 +407,7 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
         if i % imu_per_master == 0 {
             let s = i * SUBSTEPS;
             let (th, thd) = flex.at_boundary(s);
-            emit_master(t, &pos_m, &th, &thd, &mut rng);
+            emit_master(t, &earth_m, &th, &thd, &mut rng);
         }
     }
     let rows = truth_t.len();
