@@ -64,8 +64,7 @@ impl<T: Real> RateAt<T> {
     /// How far the interpolated rate departs from the rate *at* `t_ref` when the rate
     /// diffuses (s): a rate that moves as a random walk of density `q` (rad²/s³) leaves
     /// a departure of variance `q` times this. The flexure's rate does, inside the IMU
-    /// intervals and between them and the epoch its states belong to
-    /// (`flexure::AxisModel::rate_diffusion`).
+    /// intervals (`flexure::AxisModel::rate_diffusion`).
     pub fn departure_from(&self, t_ref: f64) -> f64 {
         departure_gain(&self.kernel, t_ref)
     }

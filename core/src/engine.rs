@@ -1367,7 +1367,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             has_delay: self.has_delay(),
             clock_dt: self.clock_dt(msg.t),
         };
-        let m = measure(&nominal, msg, t_s, &slave, &flexure, t_s + lag.to_f64());
+        let m = measure(&nominal, msg, t_s, &slave, &flexure);
         let aug = self.cfg.augmentation;
         if let (Some(sig), Some(_)) = (&m.sig, msg.w_ib_bm) {
             if aug.offset(Effect::GyroGSensitivity).is_some() {
@@ -1614,8 +1614,7 @@ struct Measurements<T: Real> {
 /// The matching of the master message `msg` at slave time `t_s` (`slave`: the slave's
 /// solution there) before the filter: residuals, the declared blocks of the velocity and
 /// rate rows, the noises, the augmented columns' ingredients. `flexure`: the filter's
-/// θ(t_s) = θ − lag θ̇ and θ̇(t_s) = θ̇ − lag θ̈ before any update of this message;
-/// `t_states`: the epoch its states belong to, `t_s + lag`.
+/// θ(t_s) = θ − lag θ̇ and θ̇(t_s) = θ̇ − lag θ̈ before any update of this message.
 #[inline(never)]
 fn measure<T: Real>(
     e: &Nominal<'_, T>,
@@ -1623,7 +1622,6 @@ fn measure<T: Real>(
     t_s: f64,
     slave: &SlaveAt<T>,
     flexure: &(Vector3<T>, Vector3<T>),
-    t_states: f64,
 ) -> Measurements<T> {
     let c_bm_n = dcm(&msg.q_bm_n);
     let jr = right_jacobian(&e.misalignment);
@@ -1661,11 +1659,14 @@ fn measure<T: Real>(
             let z = (slave_rate.raw_b - e.gyro_bias) - w_m_bs;
             let arw = e.cfg.process_noise.gyro_arw;
             let gyro = arw * arw * T::of(slave_rate.noise_gain);
-            // The slave's rate is a mean over IMU intervals, the flexure state the rate
-            // at its epoch: the flexure rate's diffusion between them is noise of this
-            // match (`RateAt::departure_from`), carried to the slave's axes by J_r(μ̂).
+            // The slave's rate is a mean over IMU intervals, the flexure state read at
+            // t_s the rate at one instant: the flexure rate's diffusion between them is
+            // noise of this match (`RateAt::departure_from`), carried to the slave's axes
+            // by J_r(μ̂). Not its diffusion between t_s and the states' epoch (a delay in
+            // the layout): that part is the state's own process noise, and counted again
+            // here it left structure on the rate (docs/diagnosis.md "Session 13").
             let q = Vector3::from(e.cfg.flexure.axes.map(|a| a.rate_diffusion()));
-            let departure = T::of(slave_rate.departure_from(t_states));
+            let departure = T::of(slave_rate.departure_from(t_s));
             let flex = jr.component_mul(&jr) * q * departure;
             let r = noise.rate_radps.zip_map(&flex, |s, f| s * s + gyro + f);
             Some(Measured {
