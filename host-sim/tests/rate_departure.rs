@@ -8,8 +8,7 @@
 //! `align::RateAt::departure_from`). Without that noise the rate NIS was 1.48, 3.56 and
 //! 8.17 here and the NEES of the nine calibrated states 109.4.
 
-use std::path::Path;
-use std::process::Command;
+mod truth_handed;
 
 /// Blind draw 25 at 300 s (`flexcal simulate --blind --seed 25 --duration 300 --drawn F`).
 const NOISELESS_MASTER_DRAW_25: &str = r#"name = "blind-25"
@@ -66,52 +65,10 @@ master_delay_rate = 0.0
 lever_arm_error_m = [0.0, 0.0, 0.0]
 "#;
 
-fn flexcal() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_flexcal"))
-}
-
-fn run(dir: &Path) -> serde_json::Value {
-    let scenario = dir.join("draw.toml");
-    std::fs::write(&scenario, NOISELESS_MASTER_DRAW_25).unwrap();
-    let rec = dir.join("rec");
-    let st = flexcal()
-        .args(["simulate", "--seed", "25", "--scenario"])
-        .arg(&scenario)
-        .arg("--out")
-        .arg(&rec)
-        .status()
-        .unwrap();
-    assert!(st.success());
-    // The truth model: what the simulator declares, and the drawn mounting.
-    let drawn: toml::Value = toml::from_str(NOISELESS_MASTER_DRAW_25).unwrap();
-    let mu: Vec<String> = drawn["misalignment_deg"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|d| format!("{:?}", d.as_float().unwrap().to_radians()))
-        .collect();
-    let mut config = std::fs::read_to_string(rec.join("calibrate.toml")).unwrap();
-    config.push_str(&format!("\nmounting_estimate_rad = [{}]\n", mu.join(", ")));
-    let config_path = dir.join("truth.toml");
-    std::fs::write(&config_path, config).unwrap();
-    let out = dir.join("cal");
-    let st = flexcal()
-        .arg("calibrate")
-        .arg(&rec)
-        .arg("--config")
-        .arg(&config_path)
-        .arg("--out")
-        .arg(&out)
-        .status()
-        .unwrap();
-    assert!(st.success());
-    serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
-}
-
 #[test]
 fn rate_matching_against_a_noiseless_master_is_not_overconfident() {
     let tmp = tempfile::tempdir().unwrap();
-    let s = run(tmp.path());
+    let s = truth_handed::calibrate(tmp.path(), NOISELESS_MASTER_DRAW_25, 25);
     // Each rate axis's mean NIS at most its band's upper edge (one-sided: the master's
     // white floors keep the truth model pessimistic elsewhere, 0.79–0.91 here).
     for r in s["residuals"].as_array().unwrap() {

@@ -7,8 +7,7 @@
 //! `flexcal_core::tilt_bias` the filter claimed 1.2e-6 m/s² there for an error of 8.6e-6
 //! (NEES 98.0 of the nine calibrated states).
 
-use std::path::Path;
-use std::process::Command;
+mod truth_handed;
 
 use nalgebra::{SMatrix, SVector, SymmetricEigen};
 
@@ -68,52 +67,10 @@ master_delay_rate = 0.0
 lever_arm_error_m = [0.0, 0.0, 0.0]
 "#;
 
-fn flexcal() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_flexcal"))
-}
-
-fn run(dir: &Path) -> serde_json::Value {
-    let scenario = dir.join("calm.toml");
-    std::fs::write(&scenario, CALM_SEA_DRAW_3).unwrap();
-    let rec = dir.join("rec");
-    let st = flexcal()
-        .args(["simulate", "--seed", "3", "--scenario"])
-        .arg(&scenario)
-        .arg("--out")
-        .arg(&rec)
-        .status()
-        .unwrap();
-    assert!(st.success());
-    // The truth model: what the simulator declares, and the drawn mounting.
-    let drawn: toml::Value = toml::from_str(CALM_SEA_DRAW_3).unwrap();
-    let mu: Vec<String> = drawn["misalignment_deg"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|d| format!("{:?}", d.as_float().unwrap().to_radians()))
-        .collect();
-    let mut config = std::fs::read_to_string(rec.join("calibrate.toml")).unwrap();
-    config.push_str(&format!("\nmounting_estimate_rad = [{}]\n", mu.join(", ")));
-    let config_path = dir.join("truth.toml");
-    std::fs::write(&config_path, config).unwrap();
-    let out = dir.join("cal");
-    let st = flexcal()
-        .arg("calibrate")
-        .arg(&rec)
-        .arg("--config")
-        .arg(&config_path)
-        .arg("--out")
-        .arg(&out)
-        .status()
-        .unwrap();
-    assert!(st.success());
-    serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
-}
-
 #[test]
 fn calm_sea_handed_its_truth_is_consistent_in_its_sharpest_direction() {
     let tmp = tempfile::tempdir().unwrap();
-    let s = run(tmp.path());
+    let s = truth_handed::calibrate(tmp.path(), CALM_SEA_DRAW_3, 3);
     let e = &s["errors"];
     let err: Vec<f64> = ["gyro_bias", "accel_bias", "misalignment"]
         .iter()
