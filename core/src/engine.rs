@@ -1661,12 +1661,12 @@ fn measure<T: Real>(
             let gyro = arw * arw * T::of(slave_rate.noise_gain);
             // The slave's rate is a mean over IMU intervals, the flexure state read at
             // t_s the rate at one instant: the flexure rate's diffusion between them is
-            // noise of this match (`RateAt::departure_from`), carried to the slave's axes
+            // noise of this match (`RateAt::departure_gain`), carried to the slave's axes
             // by J_r(μ̂). Not its diffusion between t_s and the states' epoch (a delay in
             // the layout): that part is the state's own process noise, and counted again
             // here it left structure on the rate (docs/diagnosis.md "Session 13").
             let q = Vector3::from(e.cfg.flexure.axes.map(|a| a.rate_diffusion()));
-            let departure = T::of(slave_rate.departure_from(t_s));
+            let departure = slave_rate.departure_gain;
             let flex = jr.component_mul(&jr) * q * departure;
             let r = noise.rate_radps.zip_map(&flex, |s, f| s * s + gyro + f);
             Some(Measured {
