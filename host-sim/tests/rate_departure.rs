@@ -5,7 +5,7 @@
 //! filter's measurement model, not of the learner. The slave's rate is a mean over IMU
 //! intervals, the flexure state the rate at one instant; a second-order mode's rate
 //! diffuses between the two (`flexure::AxisModel::rate_diffusion`,
-//! `align::RateAt::departure_from`). Without that noise the rate NIS was 1.48, 3.56 and
+//! `align::departure_gain`). Without that noise the rate NIS was 1.48, 3.56 and
 //! 8.17 here and the NEES of the nine calibrated states 109.4.
 
 mod truth_handed;
