@@ -36,11 +36,7 @@ rec="$out/truth-$tag"
 rm -rf "$rec"
 "$F" simulate --scenario "$scen" --seed "$seed" --out "$rec" > /dev/null
 # The drawn mounting as the starting estimate (the drawn model declares none).
-python3 - "$scen" >> "$rec/calibrate.toml" <<'EOF'
-import math, re, sys
-m = re.search(r"misalignment_deg = \[(.*?)\]", open(sys.argv[1]).read()).group(1)
-print("mounting_estimate_rad = [" + ", ".join(repr(math.radians(float(x))) for x in m.split(",")) + "]")
-EOF
+python3 "$(dirname "$0")/drawn-mounting.py" "$scen" >> "$rec/calibrate.toml"
 if [[ -n $matching ]]; then
   sed -i "s/^matching = .*/matching = [$matching]/" "$rec/calibrate.toml"
 fi

@@ -11,12 +11,23 @@
 #   CONF_EDIT='s/^matching = .*/matching = ["attitude", "angular_rate"]/'
 # Uses target/release/flexcal unless FLEXCAL names another.
 set -uo pipefail
-F=${FLEXCAL:-target/release/flexcal}; scen=$1; T=$2; eff=$3; shift 3; mkdir -p $T
-for s in "$@"; do rec=$T/seed$s; rm -rf $rec; $F simulate --scenario $scen --seed $s --out $rec >/dev/null; python3 - $scen >> $rec/calibrate.toml <<'EOF'
-import math, re, sys
-m = re.search(r"misalignment_deg = \[(.*?)\]", open(sys.argv[1]).read()).group(1)
-print("mounting_estimate_rad = [" + ", ".join(repr(math.radians(float(x))) for x in m.split(",")) + "]")
+F=${FLEXCAL:-target/release/flexcal}
+scen=$1
+out=$2
+effect=$3
+shift 3
+mkdir -p "$out"
+for seed in "$@"; do
+  rec=$out/seed$seed
+  rm -rf "$rec"
+  "$F" simulate --scenario "$scen" --seed "$seed" --out "$rec" > /dev/null
+  python3 "$(dirname "$0")/drawn-mounting.py" "$scen" >> "$rec/calibrate.toml"
+  if [ -n "${CONF_EDIT:-}" ]; then sed -i "$CONF_EDIT" "$rec/calibrate.toml"; fi
+  "$F" calibrate "$rec" --effects "$effect" --out "$rec-cal" > /dev/null 2>&1
+  python3 - "$rec-cal/summary.json" "$seed" <<'EOF'
+import json, sys
+e = json.load(open(sys.argv[1]))["effects"][0]
+print(sys.argv[2], ["%.4g" % x for x in e["estimate"]], ["%.2g" % x for x in e["sigma"]],
+      "%.1f" % e["wald"])
 EOF
-if [ -n "${CONF_EDIT:-}" ]; then sed -i "$CONF_EDIT" "$rec/calibrate.toml"; fi
-$F calibrate $rec --effects $eff --out $rec-cal >/dev/null 2>&1; python3 -c "
-import json;e=json.load(open('$rec-cal/summary.json'))['effects'][0];print($s, ['%.4g'%x for x in e['estimate']], ['%.2g'%x for x in e['sigma']], '%.1f'%e['wald'])"; done
+done

@@ -58,7 +58,7 @@ pub struct RateAt<T: Real> {
 /// for `u > a` and minus its mass up to `u` for `u < a` (with `w0 + w1 = 1` it jumps by
 /// 1 at `a`). `g` is linear on each piece between the intervals' ends and `a`, so each
 /// integrates exactly as `L (g₀² + g₀g₁ + g₁²) / 3`.
-pub fn departure_gain<T: Real>(p_dt: T, w0: T, gap: T, s_dt: T, w1: T, a: T) -> T {
+fn departure_gain<T: Real>(p_dt: T, w0: T, gap: T, s_dt: T, w1: T, a: T) -> T {
     let zero = T::zero();
     let piece = |l: T, g0: T, g1: T| l.max(zero) * (g0 * g0 + g0 * g1 + g1 * g1) / T::of(3.0);
     // Before a: over the first interval g goes 0 → −w0, over the gap it stays −w0, then

@@ -1345,8 +1345,13 @@ impl<T: Real, const S: usize> Engine<T, S> {
         // ... and θ̇(t_s) = θ̇ − lag θ̈, θ̈ = α θ + β θ̇ from each axis's model: the rate
         // read at the epoch instead moved a fed-back delay estimate by ten times its σ
         // (docs/diagnosis.md "Session 13").
-        let period = T::of(self.cfg.filter_period_s);
-        let accel = self.cfg.flexure.axes.map(|a| a.acceleration(period));
+        // Only off the epoch (a delay in the layout) is the acceleration needed.
+        let accel = if lag == T::zero() {
+            [(T::zero(), T::zero()); 3]
+        } else {
+            let period = self.cfg.flexure.period_s;
+            self.cfg.flexure.axes.map(|a| a.acceleration(period))
+        };
         let flexure = (
             theta_at(&self.kf),
             Vector3::from_fn(|k, _| {

@@ -89,7 +89,7 @@ impl<T: Real> AxisModel<T> {
     /// axis's is `4ζω³σ²` (its stationary `ω²σ²` = `q / (4ζω)`); an AR(2) at the filter
     /// period says nothing of the rate inside a period (its rate state is the period's
     /// mean), so its is zero. The rate matching needs it: the slave's rate is a mean over
-    /// IMU intervals, the state the rate at one instant (`align::RateAt::flexure_gain`).
+    /// IMU intervals, the state the rate at one instant (`align::RateAt::departure_gain`).
     pub fn rate_diffusion(&self) -> T {
         match self {
             AxisModel::Ar(_) => T::zero(),

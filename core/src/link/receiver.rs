@@ -176,6 +176,23 @@ mod tests {
     use super::*;
     use crate::link::codec::{encode, MAX_FRAME_LEN};
     use crate::link::message::{EstimatesMsg, HealthFlags, ImuSampleMsg, Message};
+
+    /// An Estimates message at time `t` with every flexure angle `flexure` (rad), the
+    /// rest zero.
+    fn est(t: f64, flexure: f32) -> Message {
+        Message::Estimates(EstimatesMsg {
+            t,
+            gyro_bias: [0.0; 3],
+            gyro_bias_sigma: [0.0; 3],
+            accel_bias: [0.0; 3],
+            accel_bias_sigma: [0.0; 3],
+            misalignment: [0.0; 3],
+            misalignment_sigma: [0.0; 3],
+            flexure: [flexure; 3],
+            flexure_sigma: [0.0; 3],
+            health: HealthFlags(0),
+        })
+    }
     extern crate std;
     use std::vec::Vec;
 
@@ -255,20 +272,6 @@ mod tests {
 
     #[test]
     fn a_board_receiver_checks_and_sequences_what_it_does_not_parse() {
-        let est = |t, flexure: f32| {
-            Message::Estimates(EstimatesMsg {
-                t,
-                gyro_bias: [0.0; 3],
-                gyro_bias_sigma: [0.0; 3],
-                accel_bias: [0.0; 3],
-                accel_bias_sigma: [0.0; 3],
-                misalignment: [0.0; 3],
-                misalignment_sigma: [0.0; 3],
-                flexure: [flexure; 3],
-                flexure_sigma: [0.0; 3],
-                health: HealthFlags(0),
-            })
-        };
         let mut board = Receiver::<{ MessageKind::TO_BOARD }>::parsing();
         let mut host = Receiver::new();
         let mut feed = |seq: u16, m: &Message| {
@@ -320,24 +323,10 @@ mod tests {
     #[test]
     fn streams_are_independent_and_estimates_time_unchecked() {
         let mut rx = Receiver::new();
-        let est = |t| {
-            Message::Estimates(EstimatesMsg {
-                t,
-                gyro_bias: [0.0; 3],
-                gyro_bias_sigma: [0.0; 3],
-                accel_bias: [0.0; 3],
-                accel_bias_sigma: [0.0; 3],
-                misalignment: [0.0; 3],
-                misalignment_sigma: [0.0; 3],
-                flexure: [0.0; 3],
-                flexure_sigma: [0.0; 3],
-                health: HealthFlags(0),
-            })
-        };
         assert!(send(&mut rx, 0, &imu(1.0)).unwrap().is_ok());
-        assert!(send(&mut rx, 0, &est(5.0)).unwrap().is_ok());
+        assert!(send(&mut rx, 0, &est(5.0, 0.0)).unwrap().is_ok());
         // Same time again is fine for estimates (no filter update in between).
-        assert!(send(&mut rx, 1, &est(5.0)).unwrap().is_ok());
+        assert!(send(&mut rx, 1, &est(5.0, 0.0)).unwrap().is_ok());
         assert!(send(&mut rx, 1, &imu(1.1)).unwrap().is_ok());
         assert_eq!(rx.counters().sequence.accepted, 4);
         assert_eq!(rx.counters().sequence.rejected(), 0);
