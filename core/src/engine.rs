@@ -241,6 +241,12 @@ pub struct MasterFate {
     pub unmatched: u32,
     /// Still waiting in the queue for the slave (at the end of a run: never matched).
     pub pending: u32,
+    /// Matched (and counted in [`Counters`]) with the velocity and rate channels held:
+    /// a master that gives its rate whose past rates did not yet cover the window that
+    /// forms the delay's rate and velocity columns (the start, after a gap), so only
+    /// the attitude was matched ([`MasterFate`]'s other fields count messages that made
+    /// no update; this one counts updates that were partial).
+    pub channels_held: u32,
 }
 
 /// The calibrated quantities with their standard deviations.
@@ -366,12 +372,27 @@ pub const DELAY_FEEDBACK_SIGMA_S: f64 = 1e-3;
 /// Master angular rates kept for the slope that forms the delay's rate column.
 pub const RATE_HISTORY: usize = 64;
 
-/// Time span of the master rates the delay's rate column is fitted to (s): the 64 rates
-/// of a 100 Hz master, with which the column was built (`docs/diagnosis.md`).
+/// Time span of the master rates the delay's rate column is fitted to (s; the 64 rates
+/// of a 100 Hz master). With a quartic, the slope one 20 Hz period past the window is
+/// within 0.05 % and 0.15 ms of the angular acceleration at 1.14 rad/s, 0.32 % and
+/// 1.2 ms at 1.57 rad/s and 10 Hz (the parabola it replaces: 6.3 % and 16 ms at 1.14
+/// rad/s and 20 Hz, which the attitude-and-rate pair read as information on the delay;
+/// `python3 scripts/rate-slope-response.py`, `docs/diagnosis.md` "Session 14").
 pub const RATE_WINDOW_S: f64 = 0.645;
 
-/// Fewest master rates in `RATE_WINDOW_S` for the rate column (a parabola needs three).
+/// Fewest master rates in `RATE_WINDOW_S` for the rate column (a quartic needs five).
 pub const RATE_MIN: usize = 5;
+
+/// Terms of the polynomial through the master's rates whose derivative at the message is
+/// the delay's rate column (a quartic).
+const RATE_TERMS: usize = 5;
+
+/// How many of its noise variances a cubic or quartic term of the rate fit must exceed
+/// to be kept (`c ← c max(0, 1 − κ var/c²)`, κ = 25: a term below five σ of noise is
+/// dropped, one far above it kept whole). With κ = 1 a 10 ms delay against a 20 °/h,
+/// 100 Hz master read 10.72 ± 0.12 ms, with 9 10.38, with 25 10.30 (the parabola
+/// alone 10.29; docs/diagnosis.md "Session 14").
+const RATE_TERM_SHRINK: f64 = 25.0;
 
 /// Time constant of the exponential weights of the line through the master's past
 /// velocities whose slope is the master's own acceleration in the delay's velocity
@@ -1190,20 +1211,23 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 t: msg.t,
                 q_bm_n: msg.q_bm_n,
             });
-            // Kept only for the delay's rate and velocity columns and the
-            // g-sensitivity's rate column.
+            // The rates in every layout (their window's cover holds the velocity and
+            // rate channels, `measure`); the velocity trend only for the delay's
+            // velocity column and the g-sensitivity's rate column.
             let keep = self.has_delay()
                 || self
                     .cfg
                     .augmentation
                     .offset(Effect::GyroGSensitivity)
                     .is_some();
-            if let Some(w) = msg.w_ib_bm.filter(|_| keep) {
+            if let Some(w) = msg.w_ib_bm {
                 if self.past_master_rates.is_full() {
                     let _ = self.past_master_rates.pop_front();
                 }
                 let _ = self.past_master_rates.push_back((msg.t, w));
-                self.master_trend.push(msg.t, &msg.v_n);
+                if keep {
+                    self.master_trend.push(msg.t, &msg.v_n);
+                }
             }
         }
         None
@@ -1373,6 +1397,9 @@ impl<T: Real, const S: usize> Engine<T, S> {
             clock_dt: self.clock_dt(msg.t),
         };
         let m = measure(&nominal, msg, t_s, &slave, &flexure);
+        if m.held {
+            self.fate.channels_held += 1;
+        }
         let aug = self.cfg.augmentation;
         if let (Some(sig), Some(_)) = (&m.sig, msg.w_ib_bm) {
             if aug.offset(Effect::GyroGSensitivity).is_some() {
@@ -1614,6 +1641,8 @@ struct Measurements<T: Real> {
     angular_rate: Option<Measured<T>>,
     jr: Matrix3<T>,
     sig: Option<Signature<T>>,
+    /// Whether the velocity or rate channel in use was held (see [`MasterFate`]).
+    held: bool,
 }
 
 /// The matching of the master message `msg` at slave time `t_s` (`slave`: the slave's
@@ -1637,9 +1666,33 @@ fn measure<T: Real>(
     let (w_eb, w_eb_var) =
         master_rate_wrt_earth(msg, e.prev_master.as_ref(), e.cfg, &here, &c_bm_n);
     let rate = e.buffer.rate_at(t_s).ok();
-    let sig = (!e.cfg.augmentation.is_empty())
-        .then(|| signature(e, msg, rate.as_ref(), slave, &here, &c_bm_n, &w_eb, flexure));
-    let velocity = m.velocity.then(|| {
+    // The master's angular acceleration at the message, for the delay's rate and
+    // velocity columns.
+    let gives_rate = msg.w_ib_bm.is_some();
+    let covered = gives_rate && master_rates_cover(e.past_master_rates, msg.t).is_some();
+    let slope = if e.has_delay && covered {
+        // The master's own rate noise variance (rad²/s²; the lever arm's, which holds
+        // none of the slave side's model error).
+        let sigma = e.cfg.measurement_noise.lever_arm_rate_radps;
+        let noise_var = sigma * sigma;
+        master_rate_slope(e.past_master_rates, msg.t, noise_var)
+    } else {
+        None
+    };
+    // Where the master gives its rate but its past rates do not yet cover their window
+    // (the start, a gap), the delay has no rate or velocity column, while those
+    // residuals hold the delay's `τ ω̇` and `τ v̇`: matched with a zero column, they
+    // told the delay's state what the flexure could not take (a 5 ms delay on
+    // noise-free data read as 0.2 ± 0.1 ms, docs/diagnosis.md "Session 14"). Those two
+    // channels are held until the columns form; the attitude's is the master's rate.
+    // Held in every layout, so that runs with and without the delay match the same
+    // innovations and their likelihoods compare (`diagnose`).
+    let held = gives_rate && (!covered || (e.has_delay && slope.is_none()));
+    let sig = (!e.cfg.augmentation.is_empty()).then(|| {
+        let ingredients = (rate.as_ref(), slope);
+        signature(e, msg, ingredients, slave, &here, &c_bm_n, &w_eb, flexure)
+    });
+    let velocity = (m.velocity && !held).then(|| {
         let r0 = e.cfg.lever_arm_m;
         let z = model::velocity_residual(&slave.v_n, &msg.v_n, &c_bm_n, &w_eb, &r0);
         let r_bend = e.cfg.bending.matrix(&r0);
@@ -1657,7 +1710,7 @@ fn measure<T: Real>(
     });
     // The master's rate at t_v against the slave's, interpolated at t_v: each message
     // uses its own IMU intervals and its own master sample (white noise).
-    let angular_rate = match (m.angular_rate, msg.w_ib_bm, rate) {
+    let angular_rate = match (m.angular_rate && !held, msg.w_ib_bm, rate) {
         (true, Some(w_m), Some(slave_rate)) => {
             let w_m_bs = exp_so3(&e.misalignment).transpose() * w_m;
             // `model::rate_residual` with Exp(μ̂)ᵀ ω_m computed once.
@@ -1688,6 +1741,7 @@ fn measure<T: Real>(
         angular_rate,
         jr,
         sig,
+        held: held && (m.velocity || m.angular_rate),
     }
 }
 
@@ -1737,46 +1791,115 @@ fn master_rate_wrt_earth<T: Real>(
 }
 
 /// The master's angular acceleration at `t_msg`, the stamp of the message being
-/// matched (rad/s², master body): the derivative there of a least-squares parabola
+/// matched (rad/s², master body): the derivative there of a least-squares quartic
 /// through the kept rates of the last `RATE_WINDOW_S` (a straight line's slope would
-/// belong to the window's middle). The window is a time, not a count: at 10 Hz the
+/// belong to the window's middle; a parabola's is 6 % large and 16 ms late at a
+/// ship's 1.14 rad/s, and the attitude and rate rows together must see the delay as
+/// the derivative of one column in the other). The window is a time, not a count: at 10 Hz the
 /// 64 rates spanned 6.4 s, longer than a ship's roll period, and the parabola's
 /// slope was no angular acceleration (a constant 17 ms delay, blind draw 102 with a
 /// 10 Hz master: 13.75 ± 0.04 ms with the rate channel, 17.00 ± 0.07 without it).
-/// `None` until the window is covered by at least `RATE_MIN` rates spanning no gap
-/// (and for a master that gives no rate). `period_s`: the filter period.
+/// `None` until [`master_rates_cover`] the window (and for a master that gives no rate).
 fn master_rate_slope<T: Real>(
     rates: &Deque<(f64, Vector3<T>), RATE_HISTORY>,
-    period_s: f64,
     t_msg: f64,
+    noise_var: T,
 ) -> Option<Vector3<T>> {
+    let (t0, t1) = master_rates_cover(rates, t_msg)?;
+    // Least squares in Legendre polynomials of u = (t − t_mid) / half over the window's
+    // span [t0, t1]: their normal matrix is nearly diagonal, so single precision solves
+    // it (monomials would need `f64`, software arithmetic on the board); only the times'
+    // differences are formed in `f64`.
+    let (t_mid, half) = (0.5 * (t0 + t1), 0.5 * (t1 - t0));
+    let mut normal = nalgebra::SMatrix::<T, RATE_TERMS, RATE_TERMS>::zeros();
+    let mut rhs = nalgebra::SMatrix::<T, RATE_TERMS, 3>::zeros();
+    for &(t, w) in rates.iter().filter(|r| r.0 >= t0) {
+        let (p, _) = legendre(T::of((t - t_mid) / half));
+        normal += p * p.transpose();
+        rhs += p * w.transpose();
+    }
+    let chol = nalgebra::linalg::Cholesky::new(normal)?;
+    let mut coef = chol.solve(&rhs);
+    // The cubic and quartic terms shrunk by their noise (`RATE_TERM_SHRINK`, the rates'
+    // white noise `noise_var` through the fit): against a noiseless master the
+    // quartic whole, against a noisy one (20 °/h at 100 Hz) nearly the parabola, whose
+    // slope weighs the newest rates less. The quartic's weights on them carried their
+    // noise, which the flexure states had taken into the innovation, into the column: a
+    // 10 ms delay read as 10.9 ± 0.1 ms (docs/diagnosis.md "Session 14").
+    for k in 3..RATE_TERMS {
+        let mut unit = nalgebra::SVector::<T, RATE_TERMS>::zeros();
+        if let Some(e) = unit.get_mut(k) {
+            *e = T::one();
+        }
+        let var = T::of(RATE_TERM_SHRINK) * noise_var * vget(&chol.solve(&unit), k);
+        for axis in 0..3 {
+            if let Some(c) = coef.get_mut((k, axis)) {
+                let c2 = *c * *c;
+                *c = if c2 > var {
+                    *c * (T::one() - var / c2)
+                } else {
+                    T::zero()
+                };
+            }
+        }
+    }
+    let (_, dp) = legendre(T::of((t_msg - t_mid) / half));
+    let slope = coef.transpose() * dp / T::of(half);
+    slope.iter().all(|v| v.is_finite()).then_some(slope)
+}
+
+/// The first and last times of the master's past rates within `RATE_WINDOW_S` before
+/// the newest, if they cover that window with at least `RATE_MIN` rates and no gap up
+/// to the message at `t_msg`: whether the delay's rate column can be formed.
+fn master_rates_cover<T: Real>(
+    rates: &Deque<(f64, Vector3<T>), RATE_HISTORY>,
+    t_msg: f64,
+) -> Option<(f64, f64)> {
     let (&(oldest, _), &(t1, _)) = (rates.front()?, rates.back()?);
     let from = t1 - RATE_WINDOW_S;
     let window = || rates.iter().filter(move |r| r.0 >= from);
     let n = window().count();
     let t0 = window().next().map_or(t1, |r| r.0);
     let covered = rates.len() == RATE_HISTORY || oldest < from;
-    let span_ok = t1 - t0 <= 1.5 * n.saturating_sub(1) as f64 * period_s;
-    if n < RATE_MIN || !covered || !span_ok || t1 <= t0 {
-        return None;
+    // No gap: no spacing between the window's rates, or from the newest to the message,
+    // longer than 2.5 of the window's shortest (the master's own period, whatever the
+    // filter's: compared with the filter period, a 20 Hz master under a 100 Hz filter
+    // never formed the column).
+    let (mut shortest, mut longest) = (f64::INFINITY, t_msg - t1);
+    let mut previous = t0;
+    for &(t, _) in window().skip(1) {
+        shortest = shortest.min(t - previous);
+        longest = longest.max(t - previous);
+        previous = t;
     }
-    // Normal equations of w = a + b u + c u², u = t − t̄ (f64 sums, per-axis right sides).
-    let t_mean = window().map(|r| r.0).sum::<f64>() / n as f64;
-    let mut m = nalgebra::Matrix3::<f64>::zeros();
-    let mut rhs = nalgebra::Matrix3::<f64>::zeros();
-    for &(t, w) in window() {
-        let u = t - t_mean;
-        let basis = nalgebra::Vector3::new(1.0, u, u * u);
-        m += basis * basis.transpose();
-        let w64 = nalgebra::Vector3::new(w.x.to_f64(), w.y.to_f64(), w.z.to_f64());
-        rhs += basis * w64.transpose();
-    }
-    // Rows of `coef`: a, b, c; columns: axes.
-    let coef = m.try_inverse()? * rhs;
-    let u_end = t_msg - t_mean;
-    Some(Vector3::from_fn(|axis, _| {
-        T::of(mat::get(&coef, 1, axis) + 2.0 * u_end * mat::get(&coef, 2, axis))
-    }))
+    let span_ok = shortest > 0.0 && longest <= 2.5 * shortest;
+    (n >= RATE_MIN && covered && span_ok && t1 > t0).then_some((t0, t1))
+}
+
+/// The Legendre polynomials `P_0 … P_4` at `u` and their derivatives in `u`.
+fn legendre<T: Real>(
+    u: T,
+) -> (
+    nalgebra::SVector<T, RATE_TERMS>,
+    nalgebra::SVector<T, RATE_TERMS>,
+) {
+    let c = |x: f64| T::of(x);
+    let u2 = u * u;
+    let p = nalgebra::SVector::<T, RATE_TERMS>::new(
+        T::one(),
+        u,
+        (c(3.0) * u2 - T::one()) * c(0.5),
+        (c(5.0) * u2 - c(3.0)) * u * c(0.5),
+        ((c(35.0) * u2 - c(30.0)) * u2 + c(3.0)) * c(0.125),
+    );
+    let dp = nalgebra::SVector::<T, RATE_TERMS>::new(
+        T::zero(),
+        T::one(),
+        c(3.0) * u,
+        (c(15.0) * u2 - c(3.0)) * c(0.5),
+        (c(35.0) * u2 - c(15.0)) * u * c(0.5),
+    );
+    (p, dp)
 }
 
 /// The master's angular acceleration from its two previous rates (rad/s², master body):
@@ -1794,13 +1917,15 @@ fn master_rate_difference<T: Real>(
 }
 
 /// The columns' ingredients of the augmented blocks for the message `msg` matched at
-/// slave time `t_s`; `rate`: the slave's rate there, `here`: the Earth model at the
-/// master's position, `flexure`: θ(t_s) and θ̇ (see [`measure`]).
+/// slave time `t_s`; `rate`: the slave's rate there, `slope`: the master's angular
+/// acceleration at the message (rad/s², master body; [`master_rate_slope`], `None`
+/// without a delay in the layout), `here`: the Earth model at the master's position,
+/// `flexure`: θ(t_s) and θ̇ (see [`measure`]).
 #[allow(clippy::too_many_arguments)]
 fn signature<T: Real>(
     e: &Nominal<'_, T>,
     msg: &MasterNav<T>,
-    rate: Option<&RateAt<T>>,
+    (rate, slope): (Option<&RateAt<T>>, Option<Vector3<T>>),
     slave: &SlaveAt<T>,
     here: &earth::Local<T>,
     c_bm_n: &Matrix3<T>,
@@ -1817,11 +1942,11 @@ fn signature<T: Real>(
     // the same attitude innovation (errors in variables: a spurious delay of 2 ms on a
     // clean flexing draw, docs/diagnosis.md "Session 10"); so the attitude column is
     // the current master message's rate (its noise is not in the attitude
-    // innovation), and the rate column the derivative of a parabola through the
+    // innovation), and the rate column the derivative of a quartic through the
     // master's previous rates (the current one's noise is in its own innovation; past
-    // noise biases through the flexure states, hence a long window). For a master
-    // that gives no rate (a rate from attitude differences would carry the current
-    // attitude noise), or before the window is covered, the slave's rate. The
+    // noise biases through the flexure states, hence a window of many rates). For a
+    // master that gives no rate (a rate from attitude differences would carry the
+    // current attitude noise), the slave's rate. The
     // velocity column likewise: the slave's sensed acceleration carries the bending
     // arm's R θ̈ of the moment (+3.4 ms on the same draw through velocity alone), so it
     // is the rate of change of the master's carried velocity, its lever-arm part from
@@ -1835,15 +1960,13 @@ fn signature<T: Real>(
         .augmentation
         .offset(Effect::GyroGSensitivity)
         .is_some();
-    let slope = if e.has_delay {
-        master_rate_slope(e.past_master_rates, e.cfg.filter_period_s, msg.t)
-    } else {
-        None
-    };
     let w_nb_bm = w_eb_bm - c_bm_n.transpose() * w_en;
-    let (w_nb_bs, w_dot_bs) = match slope {
-        Some(w_dot) => (m_bs * w_nb_bm, m_bs * w_dot),
-        None => (
+    let (w_nb_bs, w_dot_bs) = match (slope, msg.w_ib_bm) {
+        (Some(w_dot), _) => (m_bs * w_nb_bm, m_bs * w_dot),
+        // The rate and velocity channels are held ([`measure`]): the attitude's column
+        // is still the master's rate.
+        (None, Some(_)) => (m_bs * w_nb_bm, Vector3::zeros()),
+        (None, None) => (
             w_ib_bs - c_bs_n.transpose() * (w_ie + w_en),
             Vector3::zeros(),
         ),
@@ -1875,13 +1998,13 @@ fn signature<T: Real>(
     // docs/diagnosis.md "Session 12"), so `f` is the force the master carries to the
     // arm, its lever-arm terms from the master's rates, its own acceleration once the
     // line spans its window, rotated to the slave body by the estimated mounting. The
-    // angular acceleration is the delay's parabola slope where the layout forms it,
-    // else the difference of the master's two previous rates (the parabola's f64 sums
+    // angular acceleration is the delay's quartic slope where the layout forms it,
+    // else the difference of the master's two previous rates (the polynomial's f64 sums
     // cost ~290k instructions a message on the board). The rate channel needs a master
     // that gives its rate; without one, the slave's force (unused).
     let f_carried_bs = match msg.w_ib_bm {
         Some(_) if g_sensitivity => {
-            // With the parabola's slope the delay's velocity column is this acceleration.
+            // With the quartic's slope the delay's velocity column is this acceleration.
             let a_c = match slope {
                 Some(_) => v_dot_n,
                 None => augment::carried_acceleration(

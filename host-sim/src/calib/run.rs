@@ -130,6 +130,10 @@ pub struct MasterAccount {
     pub before_slave_start: u32,
     /// Read after the slave's last sample: not handed to the engine.
     pub after_slave_end: u32,
+    /// Of `matched`: matched with the velocity and rate channels held, the delay's
+    /// columns not formed yet (the master's rates not covering their window: the start,
+    /// a gap; [`MasterFate::channels_held`]).
+    pub matched_with_channels_held: u32,
 }
 
 impl MasterAccount {
@@ -146,6 +150,7 @@ impl MasterAccount {
             left_pending: f.pending,
             before_slave_start: outside[0],
             after_slave_end: outside[1],
+            matched_with_channels_held: f.channels_held,
         }
     }
 

@@ -7,7 +7,19 @@ use std::process::Command;
 
 /// Simulates `scenario` (a scenario TOML) with `seed` in `dir`, appends the drawn
 /// mounting to the declared model, calibrates with it, and returns `summary.json`.
+#[allow(dead_code)] // Not every test that shares this module calls both.
 pub fn calibrate(dir: &Path, scenario: &str, seed: u64) -> serde_json::Value {
+    calibrate_edited(dir, scenario, seed, |c| c)
+}
+
+/// [`calibrate`] with the declared model passed through `edit` first (the channels
+/// matched, the effects asked for, the priors).
+pub fn calibrate_edited(
+    dir: &Path,
+    scenario: &str,
+    seed: u64,
+    edit: impl Fn(String) -> String,
+) -> serde_json::Value {
     let flexcal = || Command::new(env!("CARGO_BIN_EXE_flexcal"));
     let path = dir.join("scenario.toml");
     std::fs::write(&path, scenario).unwrap();
@@ -29,6 +41,7 @@ pub fn calibrate(dir: &Path, scenario: &str, seed: u64) -> serde_json::Value {
         .collect();
     let mut config = std::fs::read_to_string(rec.join("calibrate.toml")).unwrap();
     config.push_str(&format!("\nmounting_estimate_rad = [{}]\n", mu.join(", ")));
+    let config = edit(config);
     let config_path = dir.join("truth.toml");
     std::fs::write(&config_path, config).unwrap();
     let out = dir.join("cal");
