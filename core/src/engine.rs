@@ -357,6 +357,8 @@ pub struct Engine<T: Real, const S: usize = N> {
     frozen: bool,
     /// The master's last angular rates `(t, ω_ib^bm)` (for the delay's rate column).
     past_master_rates: Deque<(f64, Vector3<T>), RATE_HISTORY>,
+    /// Where the master's rates run without a gap ([`RateRun`]).
+    rate_run: RateRun,
     /// The master's own acceleration from its past velocities (the delay's velocity column).
     master_trend: VelocityTrend<T>,
     /// The specific force the last matched master message carries to the slave, slave
@@ -544,6 +546,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             delay_rate: 0.0,
             clock_t0: None,
             past_master_rates: Deque::new(),
+            rate_run: RateRun::new(),
             master_trend: VelocityTrend::new(),
             g_force_bs: None,
             frozen: false,
@@ -589,6 +592,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         self.delay_rate = 0.0;
         self.clock_t0 = None;
         self.past_master_rates.clear();
+        self.rate_run = RateRun::new();
         self.master_trend = VelocityTrend::new();
         self.g_force_bs = None;
         self.frozen = false;
@@ -1225,6 +1229,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
                     let _ = self.past_master_rates.pop_front();
                 }
                 let _ = self.past_master_rates.push_back((msg.t, w));
+                self.rate_run.push(msg.t);
                 if keep {
                     self.master_trend.push(msg.t, &msg.v_n);
                 }
@@ -1394,6 +1399,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             past_master_rates: &self.past_master_rates,
             master_trend: &self.master_trend,
             has_delay: self.has_delay(),
+            rates_cover: self.rate_run.covers(msg.t),
             clock_dt: self.clock_dt(msg.t),
         };
         let m = measure(&nominal, msg, t_s, &slave, &flexure);
@@ -1518,6 +1524,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         self.epoch = None;
         self.gated_streaks = [0; 3];
         self.past_master_rates.clear();
+        self.rate_run = RateRun::new();
         self.master_trend = VelocityTrend::new();
         self.g_force_bs = None;
         self.counters.resets += 1;
@@ -1619,6 +1626,9 @@ struct Nominal<'a, T: Real> {
     master_trend: &'a VelocityTrend<T>,
     /// Whether the layout carries the master delay (`Engine::has_delay`).
     has_delay: bool,
+    /// Whether the master's past rates cover their window before this message
+    /// ([`RateRun::covers`]).
+    rates_cover: bool,
     /// The message's time since the clock's reference t₀ (s; `Engine::clock_dt`).
     clock_dt: f64,
 }
@@ -1669,7 +1679,7 @@ fn measure<T: Real>(
     // The master's angular acceleration at the message, for the delay's rate and
     // velocity columns.
     let gives_rate = msg.w_ib_bm.is_some();
-    let covered = gives_rate && master_rates_cover(e.past_master_rates, msg.t).is_some();
+    let covered = gives_rate && e.rates_cover;
     let slope = if e.has_delay && covered {
         // The master's own rate noise variance (rad²/s²; the lever arm's, which holds
         // none of the slave side's model error).
@@ -1799,13 +1809,14 @@ fn master_rate_wrt_earth<T: Real>(
 /// 64 rates spanned 6.4 s, longer than a ship's roll period, and the parabola's
 /// slope was no angular acceleration (a constant 17 ms delay, blind draw 102 with a
 /// 10 Hz master: 13.75 ± 0.04 ms with the rate channel, 17.00 ± 0.07 without it).
-/// `None` until [`master_rates_cover`] the window (and for a master that gives no rate).
+/// `None` with fewer than `RATE_MIN` rates in the window (asked only once [`RateRun`]
+/// covers it).
 fn master_rate_slope<T: Real>(
     rates: &Deque<(f64, Vector3<T>), RATE_HISTORY>,
     t_msg: f64,
     noise_var: T,
 ) -> Option<Vector3<T>> {
-    let (t0, t1) = master_rates_cover(rates, t_msg)?;
+    let (t0, t1) = rate_window(rates)?;
     // Least squares in Legendre polynomials of u = (t − t_mid) / half over the window's
     // span [t0, t1]: their normal matrix is nearly diagonal, so single precision solves
     // it (monomials would need `f64`, software arithmetic on the board); only the times'
@@ -1849,31 +1860,65 @@ fn master_rate_slope<T: Real>(
 }
 
 /// The first and last times of the master's past rates within `RATE_WINDOW_S` before
-/// the newest, if they cover that window with at least `RATE_MIN` rates and no gap up
-/// to the message at `t_msg`: whether the delay's rate column can be formed.
-fn master_rates_cover<T: Real>(
-    rates: &Deque<(f64, Vector3<T>), RATE_HISTORY>,
-    t_msg: f64,
-) -> Option<(f64, f64)> {
-    let (&(oldest, _), &(t1, _)) = (rates.front()?, rates.back()?);
+/// the newest, if at least `RATE_MIN` (the gaps are [`RateRun`]'s).
+fn rate_window<T: Real>(rates: &Deque<(f64, Vector3<T>), RATE_HISTORY>) -> Option<(f64, f64)> {
+    let &(t1, _) = rates.back()?;
     let from = t1 - RATE_WINDOW_S;
-    let window = || rates.iter().filter(move |r| r.0 >= from);
-    let n = window().count();
-    let t0 = window().next().map_or(t1, |r| r.0);
-    let covered = rates.len() == RATE_HISTORY || oldest < from;
-    // No gap: no spacing between the window's rates, or from the newest to the message,
-    // longer than 2.5 of the window's shortest (the master's own period, whatever the
-    // filter's: compared with the filter period, a 20 Hz master under a 100 Hz filter
-    // never formed the column).
-    let (mut shortest, mut longest) = (f64::INFINITY, t_msg - t1);
-    let mut previous = t0;
-    for &(t, _) in window().skip(1) {
-        shortest = shortest.min(t - previous);
-        longest = longest.max(t - previous);
-        previous = t;
+    let mut window = rates.iter().filter(|r| r.0 >= from);
+    let t0 = window.next()?.0;
+    (window.count() + 1 >= RATE_MIN && t1 > t0).then_some((t0, t1))
+}
+
+/// Where the master's rates have run without a gap: a gap is a spacing longer than 2.5
+/// of the run's shortest (the master's own period, whatever the filter's: compared with
+/// the filter period, a 20 Hz master under a 100 Hz filter never formed the delay's
+/// rate column). Kept as the rates arrive, so that the question "do the rates cover
+/// their window?", asked of every message in every layout, costs no pass over them
+/// (that pass, in software `f64` on the board, cost 23k instructions an update).
+#[derive(Clone, Copy, Debug)]
+struct RateRun {
+    /// The run's first rate (s).
+    start: f64,
+    /// Its newest (s).
+    last: f64,
+    /// Its shortest spacing (s; infinite with one rate).
+    shortest: f64,
+}
+
+impl RateRun {
+    fn new() -> Self {
+        Self {
+            start: f64::INFINITY,
+            last: f64::NEG_INFINITY,
+            shortest: f64::INFINITY,
+        }
     }
-    let span_ok = shortest > 0.0 && longest <= 2.5 * shortest;
-    (n >= RATE_MIN && covered && span_ok && t1 > t0).then_some((t0, t1))
+
+    /// A rate at `t` (later than the previous).
+    fn push(&mut self, t: f64) {
+        let spacing = t - self.last;
+        let later = spacing > 0.0;
+        if !later || (self.shortest.is_finite() && spacing > 2.5 * self.shortest) {
+            *self = Self {
+                start: t,
+                last: t,
+                shortest: f64::INFINITY,
+            };
+        } else {
+            self.shortest = self.shortest.min(spacing);
+            self.last = t;
+            self.start = self.start.min(t);
+        }
+    }
+
+    /// Whether the run covers `RATE_WINDOW_S` before its newest rate with at least
+    /// `RATE_MIN` rates at its shortest spacing, and reaches the message at `t_msg`
+    /// without a gap.
+    fn covers(&self, t_msg: f64) -> bool {
+        self.last - self.start >= RATE_WINDOW_S
+            && self.shortest * (RATE_MIN - 1) as f64 <= RATE_WINDOW_S
+            && t_msg - self.last <= 2.5 * self.shortest
+    }
 }
 
 /// The Legendre polynomials `P_0 … P_4` at `u` and their derivatives in `u`.
