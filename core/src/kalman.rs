@@ -1479,26 +1479,31 @@ fn update_n<T: Real>(
     // columns before the first and after the last other one are left out.
     let mut alpha = r;
     let mut clamped = 0;
-    let (mut lo, mut hi) = (n, 0);
-    for (j, ((fj, dj), &gj)) in f.iter_mut().zip(d.iter_mut()).zip(g.iter()).enumerate() {
-        if *fj == T::zero() {
-            continue;
-        }
-        lo = lo.min(j);
-        hi = j + 1;
-        let prev = alpha;
-        alpha += *fj * gj;
-        if alpha > T::zero() {
-            *dj *= prev / alpha;
-        }
-        *fj = if prev > T::zero() {
-            -*fj / prev
-        } else {
-            T::zero()
-        };
-        if *dj < floor {
-            *dj = floor;
-            clamped += 1;
+    let lo = f.iter().position(|&v| v != T::zero()).unwrap_or(n);
+    let hi = f.iter().rposition(|&v| v != T::zero()).map_or(0, |j| j + 1);
+    let (Some(fs), Some(ds), Some(gs)) = (f.get_mut(lo..hi), d.get_mut(lo..hi), g.get(lo..hi))
+    else {
+        return refused;
+    };
+    for ((fj, dj), &gj) in fs.iter_mut().zip(ds.iter_mut()).zip(gs) {
+        let v = *fj;
+        if v != T::zero() {
+            let prev = alpha;
+            alpha += v * gj;
+            let mut dn = *dj;
+            if alpha > T::zero() {
+                dn *= prev / alpha;
+            }
+            *fj = if prev > T::zero() {
+                -v / prev
+            } else {
+                T::zero()
+            };
+            if dn < floor {
+                dn = floor;
+                clamped += 1;
+            }
+            *dj = dn;
         }
     }
     // Then U and the state ([`sweep`]).
