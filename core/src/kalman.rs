@@ -1122,12 +1122,12 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             self.pos.as_slice(),
         );
         project(&mut f, (&h, 0, 0), factors);
-        Some(
-            self.d
-                .iter()
-                .zip(&f)
-                .fold(T::zero(), |acc, (&dk, &fk)| acc + dk * fk * fk),
-        )
+        // Over slices (nalgebra's iterator cost the board ≈ 20 instructions an element).
+        let mut acc = T::zero();
+        for (&dk, &fk) in self.d.as_slice().iter().zip(&f) {
+            acc = acc + dk * fk * fk;
+        }
+        Some(acc)
     }
 
     /// `P ← P + α c cᵀ` (physical units; `c` by its non-zeros `(state, value)`, `α ≥ 0`)
