@@ -961,16 +961,16 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         }
         let (a, b) = (i.min(j), i.max(j));
         let (u, d) = (self.u.as_slice(), self.d.as_slice());
-        let ue = |r: usize, c: usize| {
-            if r == c {
-                T::one()
-            } else {
-                u.get(r * N + c).copied().unwrap_or_else(T::zero)
-            }
+        // k = b first (U(b, b) = 1: `U(a, b) · 1 · D_b` is `U(a, b) · D_b`), then rows a
+        // and b of U after column b, read as slices: the same terms in the same order.
+        let (Some(&uab), Some(&db)) = (u.get(a * N + b), d.get(b)) else {
+            return T::zero();
         };
-        let mut acc = T::zero();
-        for (k, &dk) in d.iter().enumerate().skip(b) {
-            acc += ue(a, k) * ue(b, k) * dk;
+        let mut acc = T::zero() + uab * db;
+        let ra = u.get(a * N + b + 1..(a + 1) * N).unwrap_or(&[]);
+        let rb = u.get(b * N + b + 1..(b + 1) * N).unwrap_or(&[]);
+        for ((&uak, &ubk), &dk) in ra.iter().zip(rb).zip(d.get(b + 1..).unwrap_or(&[])) {
+            acc += uak * ubk * dk;
         }
         acc
     }
