@@ -248,6 +248,43 @@ fn dot<T: Real>(a: &[T], b: &[T]) -> T {
     s0 + s1
 }
 
+/// `c[i] = d[i] w[i]` over the shortest of the three, and `dot(w, c)` over those (the
+/// same products summed in the same order as [`dot`]): one pass instead of two (the
+/// Gram-Schmidt's pivots, each row's two parts).
+#[inline(always)]
+fn weigh<T: Real>(w: &[T], d: &[T], c: &mut [T]) -> T {
+    let n = w.len().min(d.len()).min(c.len());
+    let (w, d, c) = (
+        w.get(..n).unwrap_or(&[]),
+        d.get(..n).unwrap_or(&[]),
+        c.get_mut(..n).unwrap_or(&mut []),
+    );
+    let (mut s0, mut s1) = (T::zero(), T::zero());
+    let (mut w4, mut d4, mut c4) = (w.chunks_exact(4), d.chunks_exact(4), c.chunks_exact_mut(4));
+    for ((x, y), z) in (&mut w4).zip(&mut d4).zip(&mut c4) {
+        if let ([x0, x1, x2, x3], [y0, y1, y2, y3], [z0, z1, z2, z3]) = (x, y, z) {
+            *z0 = *y0 * *x0;
+            *z1 = *y1 * *x1;
+            *z2 = *y2 * *x2;
+            *z3 = *y3 * *x3;
+            s0 += *x0 * *z0;
+            s1 += *x1 * *z1;
+            s0 += *x2 * *z2;
+            s1 += *x3 * *z3;
+        }
+    }
+    let rest = w4
+        .remainder()
+        .iter()
+        .zip(d4.remainder())
+        .zip(c4.into_remainder());
+    for ((&x, &y), z) in rest {
+        *z = y * x;
+        s0 += x * *z;
+    }
+    s0 + s1
+}
+
 /// `acc + v[0] + v[1] + …`, added in that order, four per loop turn (only the sum's
 /// finiteness is used: a step with a non-finite result is refused).
 #[inline(always)]
@@ -553,14 +590,9 @@ fn orthogonalize_n<T: Real>(w: Gram<'_, T>, scratch: [&mut [T]; 4], floor: T, t0
             rest.get(l..t0).unwrap_or(&[]),
             qrest.get(fq..nq).unwrap_or(&[]),
         );
-        // c = Dw w_j over the row's non-zeros.
-        for ((c, &w), &dd) in cu.iter_mut().zip(wj.iter()).zip(dw.get(l..).unwrap_or(&[])) {
-            *c = dd * w;
-        }
-        for ((c, &w), &dd) in cq.iter_mut().zip(qj).zip(dq.get(fq..).unwrap_or(&[])) {
-            *c = dd * w;
-        }
-        let dj = dot(wj, cu) + dot(qj, cq);
+        // c = Dw w_j over the row's non-zeros, and w_j · c.
+        let dj =
+            weigh(wj, dw.get(l..).unwrap_or(&[]), cu) + weigh(qj, dq.get(fq..).unwrap_or(&[]), cq);
         if dj > T::zero() {
             // Every row above j writes its element of column j below.
             let inv = T::one() / dj;
