@@ -1174,7 +1174,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         // Over slices (nalgebra's iterator cost the board ≈ 20 instructions an element).
         let mut acc = T::zero();
         for (&dk, &fk) in self.d.as_slice().iter().zip(&f) {
-            acc = acc + dk * fk * fk;
+            acc += dk * fk * fk;
         }
         Some(acc)
     }
