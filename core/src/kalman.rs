@@ -248,6 +248,60 @@ fn dot<T: Real>(a: &[T], b: &[T]) -> T {
     s0 + s1
 }
 
+/// `c[i] = d[i] w[i]` over the shortest of the three, and `dot(w, c)` over those (the
+/// same products summed in the same order as [`dot`]): one pass instead of two (the
+/// Gram-Schmidt's pivots, each row's two parts).
+#[inline(always)]
+fn weigh<T: Real>(w: &[T], d: &[T], c: &mut [T]) -> T {
+    let n = w.len().min(d.len()).min(c.len());
+    let (w, d, c) = (
+        w.get(..n).unwrap_or(&[]),
+        d.get(..n).unwrap_or(&[]),
+        c.get_mut(..n).unwrap_or(&mut []),
+    );
+    let (mut s0, mut s1) = (T::zero(), T::zero());
+    let (mut w4, mut d4, mut c4) = (w.chunks_exact(4), d.chunks_exact(4), c.chunks_exact_mut(4));
+    for ((x, y), z) in (&mut w4).zip(&mut d4).zip(&mut c4) {
+        if let ([x0, x1, x2, x3], [y0, y1, y2, y3], [z0, z1, z2, z3]) = (x, y, z) {
+            *z0 = *y0 * *x0;
+            *z1 = *y1 * *x1;
+            *z2 = *y2 * *x2;
+            *z3 = *y3 * *x3;
+            s0 += *x0 * *z0;
+            s1 += *x1 * *z1;
+            s0 += *x2 * *z2;
+            s1 += *x3 * *z3;
+        }
+    }
+    let rest = w4
+        .remainder()
+        .iter()
+        .zip(d4.remainder())
+        .zip(c4.into_remainder());
+    for ((&x, &y), z) in rest {
+        *z = y * x;
+        s0 += x * *z;
+    }
+    s0 + s1
+}
+
+/// `dst ← src` (the shorter of the two), four elements a turn: the board's `memcpy` took
+/// ≈ 5 instructions an element (105 for a 21-state row), a four-element block is a
+/// load-multiple and a store-multiple. Out of line: one copy for the board's layouts.
+#[inline(never)]
+fn copy_words<T: Real>(dst: &mut [T], src: &[T]) {
+    let mut d4 = dst.chunks_exact_mut(4);
+    let mut s4 = src.chunks_exact(4);
+    for (d, s) in (&mut d4).zip(&mut s4) {
+        if let ([d0, d1, d2, d3], [s0, s1, s2, s3]) = (d, s) {
+            (*d0, *d1, *d2, *d3) = (*s0, *s1, *s2, *s3);
+        }
+    }
+    for (d, &s) in d4.into_remainder().iter_mut().zip(s4.remainder()) {
+        *d = s;
+    }
+}
+
 /// `acc + v[0] + v[1] + …`, added in that order, four per loop turn (only the sum's
 /// finiteness is used: a step with a non-finite result is refused).
 #[inline(always)]
@@ -553,14 +607,9 @@ fn orthogonalize_n<T: Real>(w: Gram<'_, T>, scratch: [&mut [T]; 4], floor: T, t0
             rest.get(l..t0).unwrap_or(&[]),
             qrest.get(fq..nq).unwrap_or(&[]),
         );
-        // c = Dw w_j over the row's non-zeros.
-        for ((c, &w), &dd) in cu.iter_mut().zip(wj.iter()).zip(dw.get(l..).unwrap_or(&[])) {
-            *c = dd * w;
-        }
-        for ((c, &w), &dd) in cq.iter_mut().zip(qj).zip(dq.get(fq..).unwrap_or(&[])) {
-            *c = dd * w;
-        }
-        let dj = dot(wj, cu) + dot(qj, cq);
+        // c = Dw w_j over the row's non-zeros, and w_j · c.
+        let dj =
+            weigh(wj, dw.get(l..).unwrap_or(&[]), cu) + weigh(qj, dq.get(fq..).unwrap_or(&[]), cq);
         if dj > T::zero() {
             // Every row above j writes its element of column j below.
             let inv = T::one() / dj;
@@ -961,16 +1010,16 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         }
         let (a, b) = (i.min(j), i.max(j));
         let (u, d) = (self.u.as_slice(), self.d.as_slice());
-        let ue = |r: usize, c: usize| {
-            if r == c {
-                T::one()
-            } else {
-                u.get(r * N + c).copied().unwrap_or_else(T::zero)
-            }
+        // k = b first (U(b, b) = 1: `U(a, b) · 1 · D_b` is `U(a, b) · D_b`), then rows a
+        // and b of U after column b, read as slices: the same terms in the same order.
+        let (Some(&uab), Some(&db)) = (u.get(a * N + b), d.get(b)) else {
+            return T::zero();
         };
-        let mut acc = T::zero();
-        for (k, &dk) in d.iter().enumerate().skip(b) {
-            acc += ue(a, k) * ue(b, k) * dk;
+        let mut acc = T::zero() + uab * db;
+        let ra = u.get(a * N + b + 1..(a + 1) * N).unwrap_or(&[]);
+        let rb = u.get(b * N + b + 1..(b + 1) * N).unwrap_or(&[]);
+        for ((&uak, &ubk), &dk) in ra.iter().zip(rb).zip(d.get(b + 1..).unwrap_or(&[])) {
+            acc += uak * ubk * dk;
         }
         acc
     }
@@ -1122,12 +1171,12 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             self.pos.as_slice(),
         );
         project(&mut f, (&h, 0, 0), factors);
-        Some(
-            self.d
-                .iter()
-                .zip(&f)
-                .fold(T::zero(), |acc, (&dk, &fk)| acc + dk * fk * fk),
-        )
+        // Over slices (nalgebra's iterator cost the board ≈ 20 instructions an element).
+        let mut acc = T::zero();
+        for (&dk, &fk) in self.d.as_slice().iter().zip(&f) {
+            acc += dk * fk * fk;
+        }
+        Some(acc)
     }
 
     /// `P ← P + α c cᵀ` (physical units; `c` by its non-zeros `(state, value)`, `α ≥ 0`)
@@ -1360,7 +1409,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         for ((row, &l), &i) in active.iter().zip(active_lo.iter()).zip(phi.index.iter()) {
             let i = internal(i);
             if let (Some(dst), Some(e)) = (u.get_mut(i * N..(i + 1) * N), lo.get_mut(i)) {
-                dst.copy_from_slice(row);
+                copy_words(dst, row);
                 *e = l;
             }
         }
@@ -1479,26 +1528,31 @@ fn update_n<T: Real>(
     // columns before the first and after the last other one are left out.
     let mut alpha = r;
     let mut clamped = 0;
-    let (mut lo, mut hi) = (n, 0);
-    for (j, ((fj, dj), &gj)) in f.iter_mut().zip(d.iter_mut()).zip(g.iter()).enumerate() {
-        if *fj == T::zero() {
-            continue;
-        }
-        lo = lo.min(j);
-        hi = j + 1;
-        let prev = alpha;
-        alpha += *fj * gj;
-        if alpha > T::zero() {
-            *dj *= prev / alpha;
-        }
-        *fj = if prev > T::zero() {
-            -*fj / prev
-        } else {
-            T::zero()
-        };
-        if *dj < floor {
-            *dj = floor;
-            clamped += 1;
+    let lo = f.iter().position(|&v| v != T::zero()).unwrap_or(n);
+    let hi = f.iter().rposition(|&v| v != T::zero()).map_or(0, |j| j + 1);
+    let (Some(fs), Some(ds), Some(gs)) = (f.get_mut(lo..hi), d.get_mut(lo..hi), g.get(lo..hi))
+    else {
+        return refused;
+    };
+    for ((fj, dj), &gj) in fs.iter_mut().zip(ds.iter_mut()).zip(gs) {
+        let v = *fj;
+        if v != T::zero() {
+            let prev = alpha;
+            alpha += v * gj;
+            let mut dn = *dj;
+            if alpha > T::zero() {
+                dn *= prev / alpha;
+            }
+            *fj = if prev > T::zero() {
+                -v / prev
+            } else {
+                T::zero()
+            };
+            if dn < floor {
+                dn = floor;
+                clamped += 1;
+            }
+            *dj = dn;
         }
     }
     // Then U and the state ([`sweep`]).
@@ -1524,8 +1578,15 @@ fn project<T: Real>(
     (u, xs, scale, pos): (&[T], &[T], &[T], &[u8]),
 ) -> T {
     let n = pos.len();
+    // Every slice cut to its length in `n` (one length for all: fewer registers and
+    // checks per non-zero).
+    let (Some(h), Some(f), Some(scale), Some(xs)) =
+        (h.get(..n), f.get_mut(..n), scale.get(..n), xs.get(..n))
+    else {
+        return T::zero();
+    };
     // f = Uᵀ h over h's non-zeros in the caller's order (a row of U each, from its
-    // diagonal on: f_i += v, then row i after its diagonal), and h x.
+    // diagonal on: f_i += v · 1, then row i after its diagonal), and h x.
     let mut hx = T::zero();
     loop {
         let c = if marked != 0 {
@@ -1545,9 +1606,9 @@ fn project<T: Real>(
             let i = usize::from(p);
             let v = hk * scale.get(i).copied().unwrap_or_else(T::zero);
             hx += v * xs.get(i).copied().unwrap_or_else(T::zero);
-            if let Some((fi, rest)) = f.get_mut(i..).and_then(|f| f.split_first_mut()) {
-                *fi += v;
-                axpy(rest, v, u.get(i * n + i + 1..).unwrap_or(&[]));
+            // From the diagonal: U(i, i) = 1 is stored, and v · 1 = v exactly.
+            if let (Some(fs), Some(row)) = (f.get_mut(i..), u.get(i * n + i..(i + 1) * n)) {
+                axpy(fs, v, row);
             }
         }
     }

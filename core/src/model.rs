@@ -86,6 +86,23 @@ pub struct ProcessNoise<T> {
     pub misalignment_rw: T,
 }
 
+/// `a b`, each element `(a_i0 b_0j + a_i1 b_1j) + a_i2 b_2j` as nalgebra's product forms
+/// it (a column of `b` at a time: `1 · a_:0 · b_0j`, then `1 · a_:k · b_kj + 1 · c` for
+/// k = 1, 2; the ones are exact), written out: nalgebra's generic loops cost the board
+/// several times the 27 multiply-adds.
+fn mul3<T: Real>(a: &Matrix3<T>, b: &Matrix3<T>) -> Matrix3<T> {
+    let (a, b) = (&a.data.0, &b.data.0);
+    let [a0, a1, a2] = a;
+    let col = |[b0, b1, b2]: &[T; 3]| -> [T; 3] {
+        core::array::from_fn(|i| {
+            let at = |c: &[T; 3]| c.get(i).copied().unwrap_or_else(T::zero);
+            at(a0) * *b0 + at(a1) * *b1 + at(a2) * *b2
+        })
+    };
+    let [b0, b1, b2] = b;
+    Matrix3::from_data(nalgebra::ArrayStorage([col(b0), col(b1), col(b2)]))
+}
+
 /// Writes the 3 × 3 block `b` at row `r`, column `c` of `f`, `DYN` rows stored
 /// column-major.
 fn put<T: Real>(f: &mut [T], r: usize, c: usize, b: &Matrix3<T>) {
@@ -110,12 +127,12 @@ fn nav_dynamics_rows<T: Real>(m: &IntervalMeans<T>, f: &mut [T]) {
     let w_en = here.transport_rate_n(&m.v_n);
     let d_wen_dv = here.transport_rate_jacobian();
     // δv̇ = (−[(2ω_ie+ω_en)×] + [v×] ∂ω_en/∂v) δv − C[f×] ψ + C ∇
-    let fvv = -skew(&(w_ie * T::of(2.0) + w_en)) + skew(&m.v_n) * d_wen_dv;
+    let fvv = -skew(&(w_ie * T::of(2.0) + w_en)) + mul3(&skew(&m.v_n), &d_wen_dv);
     put(f, V, V, &fvv);
-    put(f, V, PSI, &(-(m.c_b_n * skew(&m.f_b))));
+    put(f, V, PSI, &(-mul3(&m.c_b_n, &skew(&m.f_b))));
     put(f, V, BA, &m.c_b_n);
     // ψ̇ = −Cᵀ ∂ω_en/∂v δv − [ω_ib×] ψ + ε
-    put(f, PSI, V, &(-(m.c_b_n.transpose() * d_wen_dv)));
+    put(f, PSI, V, &(-mul3(&m.c_b_n.transpose(), &d_wen_dv)));
     put(f, PSI, PSI, &(-skew(&m.w_ib_b)));
     put(f, PSI, BG, &Matrix3::identity());
 }
@@ -189,7 +206,11 @@ pub fn transition_into<T: Real, const S: usize>(
     t: T,
 ) {
     let mut ft = dynamics::<T, S>(m, aug);
-    ft *= t;
+    // Element by element over the storage, each `F(i, j) · t` as nalgebra's `ft *= t`
+    // formed it, which its iterator cost the board ≈ 8 instructions an element.
+    for e in ft.as_mut_slice() {
+        *e *= t;
+    }
     // Columns of F t's rows that are not zero (δv and ψ's own always listed).
     let mut cols = [0usize; S];
     let mut n = 0;
@@ -234,25 +255,21 @@ pub fn transition_into<T: Real, const S: usize>(
 fn powers<T: Real>(ft: &[T], f2: &mut [T], f3: &mut [T], cols: &[usize]) {
     // Columns as arrays: the board's size-optimized image would otherwise bounds-check
     // every term.
+    // The zeros only where a column is out of range (never): zeroed first and then
+    // copied over, each column cost the board a `memclr` call (≈ 35 instructions).
     let column = |m: &[T], j: usize| -> [T; DYN] {
-        let mut c = [T::zero(); DYN];
-        if let Some(src) = m.get(j * DYN..j * DYN + DYN) {
-            c.copy_from_slice(src);
-        }
-        c
+        m.get(j * DYN..j * DYN + DYN)
+            .and_then(|src| <[T; DYN]>::try_from(src).ok())
+            .unwrap_or([T::zero(); DYN])
     };
-    let first = |m: &[T]| -> [[T; DYN]; DYN] {
-        let mut cs = [[T::zero(); DYN]; DYN];
-        for (k, c) in cs.iter_mut().enumerate() {
-            *c = column(m, k);
-        }
-        cs
-    };
+    let first = |m: &[T]| -> [[T; DYN]; DYN] { core::array::from_fn(|k| column(m, k)) };
     let times_ft = |left: &[[T; DYN]; DYN], j: usize| -> [T; DYN] {
         let mut acc = [T::zero(); DYN];
+        let col = ft.get(j * DYN..j * DYN + DYN).unwrap_or(&[]);
         // Written out over the six rows: the size-optimized image does not unroll, and the
         // loop cost three times its multiply-adds (the same arithmetic, element by element).
-        for (lk, &fkj) in left.iter().zip(column(ft, j).iter()) {
+        // (A column out of range, never, leaves the zeros.)
+        for (lk, &fkj) in left.iter().zip(col) {
             let ([a0, a1, a2, a3, a4, a5], [l0, l1, l2, l3, l4, l5]) = (&mut acc, lk);
             *a0 += *l0 * fkj;
             *a1 += *l1 * fkj;
