@@ -193,16 +193,7 @@ pub fn learn(
             // matching noise sat at its floor, and the mean NEES from 10.89 to 11.23. On
             // the measured vehicle recording the bound (0.98 °/√h) held the attitude NIS
             // at 0.10–0.28 (`docs/model-learning.md`, session 7).
-            if let Some(bound) = inc
-                .as_ref()
-                .filter(|i| i.gyro_arw_is_upper_bound())
-                .map(IncrementNoise::gyro_arw)
-            {
-                let arw_start = s.model.get(Param::GyroArw);
-                s.line(&[Param::GyroArw], h);
-                s.at_most(Param::GyroArw, bound);
-                s.keep_only_if_resolved(Param::GyroArw, arw_start, IDENTIFIABLE_RELATIVE_SIGMA);
-            }
+            search_arw_under_bound(&mut s, inc.as_ref(), h);
         }
         s.match_noise(&win, NOISE_ITERATIONS);
         // What of the rate matching's noise the lever arm carries into the velocity
@@ -276,6 +267,9 @@ pub fn learn(
         refine_smooth_master(&mut whole, std::f64::consts::LN_2 / 2.0);
     }
     whole.match_noise(rec, NOISE_ITERATIONS);
+    if search_arw_under_bound(&mut whole, inc.as_ref(), std::f64::consts::LN_2 / 2.0) {
+        whole.match_noise(rec, NOISE_ITERATIONS);
+    }
     let learned_config = whole.model.config();
     let (h_start, h_learned) = rayon::join(
         || holdout(rec, start, opts.holdout_fraction),
@@ -306,6 +300,23 @@ pub fn learn(
         evaluations: whole.evaluations,
         seconds: clock.elapsed().as_secs_f64(),
     })
+}
+
+/// The angle random walk searched by the likelihood where the increments give only an
+/// upper bound of it (see `learn`), kept at or under that bound and only where the
+/// likelihood resolves it; whether it moved.
+fn search_arw_under_bound(s: &mut Search<'_>, inc: Option<&IncrementNoise>, h: f64) -> bool {
+    let Some(bound) = inc
+        .filter(|i| i.gyro_arw_is_upper_bound())
+        .map(IncrementNoise::gyro_arw)
+    else {
+        return false;
+    };
+    let arw_start = s.model.get(Param::GyroArw);
+    s.line(&[Param::GyroArw], h);
+    s.at_most(Param::GyroArw, bound);
+    s.keep_only_if_resolved(Param::GyroArw, arw_start, IDENTIFIABLE_RELATIVE_SIGMA);
+    s.model.get(Param::GyroArw) != arw_start
 }
 
 /// The master's smooth errors searched once more, on the whole recording when it is
