@@ -112,7 +112,9 @@ pub fn interval_mean_random_walk(dt: f64) -> impl Fn(f64) -> f64 {
 /// The white level `a` of `psd(f) ≈ a + b·red(f)` fitted by least squares over the bins
 /// in `[from, to]` Hz (`b` is the red part: the flexure's rate); with no red part, the
 /// band's mean. Where the band does not follow that shape or the red part fills it
-/// (`a` under a tenth of the mean), the band's mean density, flagged as an upper bound.
+/// (`a` under a tenth of the mean, and not resolved by the fit's own scatter), the
+/// band's mean density, flagged as an upper bound. On the accelerometer too, where the
+/// level read is itself only a bound of the velocity random walk (module doc).
 fn white_level(
     freq_hz: &[f64],
     density: &[f64],
