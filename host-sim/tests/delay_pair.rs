@@ -72,65 +72,25 @@ lever_arm_error_m = [0.0, 0.0, 0.0]
 "#;
 
 /// Draw 129 reduced to one axis and no noise: the ship yawing only, no flexure in the
-/// data, no gyro bias or noise, a 5 ms delay.
-const DRAW_129_YAW_ONLY_NOISE_FREE_5_MS: &str = r#"name = "blind-129"
-duration_s = 300.0
-misalignment_deg = [0.0, 0.0, 0.0]
-
-[site]
-lat_deg = -54.914830439390386
-lon_deg = 160.95547439863316
-height_m = 0.0
-
-[motion]
-roll_amp_deg = 0.0
-roll_period_s = 12.909175830611876
-pitch_amp_deg = 0.0
-pitch_period_s = 11.645301260977352
-yaw_amp_deg = 3.490055761957562
-yaw_period_s = 5.513719214485025
-heading_deg = 109.92583196278571
-speed_mps = 5.397448702386011
-
-[lever_arm]
-r0_m = [18.945076185216372, -2.773912324421733, -4.441132325004947]
-bending = "uniform_arc"
-
-[flexure]
-kind = "gauss_markov_axes"
-sigma_arcmin = [0.001, 0.001, 0.00001]
-omega_rad_s = [1.1531728790983808, 2.363889739425527, 1.4398823874811197]
-damping = [0.27249519899297003, 0.3315211353505718, 0.20202501349309065]
-
-[slave_imu]
-rate_hz = 400.0
-gyro_bias_deg_h = [0.0, 0.0, 0.0]
-accel_bias_mg = [0.16346869286835722, -0.06537422191618911, 0.13988188849998517]
-gyro_scale_ppm = [0.0, 0.0, 0.0]
-accel_scale_ppm = [0.0, 0.0, 0.0]
-gyro_nonorthogonality_urad = [0.0, 0.0, 0.0]
-accel_nonorthogonality_urad = [0.0, 0.0, 0.0]
-gyro_g_sensitivity_deg_h_per_g = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
-gyro_arw_deg_rh = 0.0000001
-accel_vrw_mps_rh = 0.0008205174770093207
-
-[master]
-rate_hz = 20.0
-gives_rate = true
-velocity_noise_mps = 0.0
-attitude_noise_deg = 0.0
-rate_noise_deg_h = 0.0
-
-[master.smooth_error]
-attitude_arcsec = 0.0
-velocity_mps = 0.0
-correlation_s = 179.0667089056773
-
-[undeclared]
-master_delay_s = 0.005
-master_delay_rate = 0.0
-lever_arm_error_m = [0.0, 0.0, 0.0]
-"#;
+/// data (0.001′ and 0.00001′), no gyro bias or noise, no smooth master error, no
+/// mounting, a 5 ms delay.
+fn draw_129_yaw_only_noise_free_5_ms() -> String {
+    [
+        ("misalignment_deg", "[0.0, 0.0, 0.0]"),
+        ("roll_amp_deg", "0.0"),
+        ("pitch_amp_deg", "0.0"),
+        ("sigma_arcmin", "[0.001, 0.001, 0.00001]"),
+        ("gyro_bias_deg_h", "[0.0, 0.0, 0.0]"),
+        ("gyro_arw_deg_rh", "0.0000001"),
+        ("attitude_arcsec", "0.0"),
+        ("velocity_mps", "0.0"),
+        ("master_delay_s", "0.005"),
+    ]
+    .iter()
+    .fold(DRAW_129_DELAYED_20_MS.to_string(), |s, (key, value)| {
+        set(&s, key, &format!("{key} = {value}"))
+    })
+}
 
 /// The estimated delay and its σ (s) from a summary with one effect.
 fn delay(summary: &serde_json::Value) -> (f64, f64) {
@@ -188,33 +148,34 @@ fn a_20_ms_delay_is_found_with_every_channel_matched() {
 #[test]
 fn attitude_and_rate_together_claim_no_more_than_a_reference_filter() {
     let tmp = tempfile::tempdir().unwrap();
-    let s = truth_handed::calibrate_edited(tmp.path(), DRAW_129_YAW_ONLY_NOISE_FREE_5_MS, 1, |c| {
-        let c = set(
-            &c,
-            "matching",
-            "matching = [\"attitude\", \"angular_rate\"]",
-        );
-        let c = with_delay(&c);
-        // The filter keeps draw 129's yaw mode (1.3245′), which the data do not have.
-        let c = set(
-            &c,
-            "flexure_gauss_markov",
-            "flexure_gauss_markov = [[1.1531728790983808, 0.27249519899297003, 2.9e-7], \
+    let s =
+        truth_handed::calibrate_edited(tmp.path(), &draw_129_yaw_only_noise_free_5_ms(), 1, |c| {
+            let c = set(
+                &c,
+                "matching",
+                "matching = [\"attitude\", \"angular_rate\"]",
+            );
+            let c = with_delay(&c);
+            // The filter keeps draw 129's yaw mode (1.3245′), which the data do not have.
+            let c = set(
+                &c,
+                "flexure_gauss_markov",
+                "flexure_gauss_markov = [[1.1531728790983808, 0.27249519899297003, 2.9e-7], \
              [2.363889739425527, 0.3315211353505718, 2.9e-7], \
              [1.4398823874811197, 0.20202501349309065, 3.852801082660392e-4]]",
-        );
-        let c = set(&c, "flexure_axes", "");
-        let c = set(
-            &c,
-            "initial_misalignment_rad",
-            "initial_misalignment_rad = 1e-9",
-        );
-        set(
-            &c,
-            "initial_gyro_bias_radps",
-            "initial_gyro_bias_radps = 1e-12",
-        )
-    });
+            );
+            let c = set(&c, "flexure_axes", "");
+            let c = set(
+                &c,
+                "initial_misalignment_rad",
+                "initial_misalignment_rad = 1e-9",
+            );
+            set(
+                &c,
+                "initial_gyro_bias_radps",
+                "initial_gyro_bias_radps = 1e-12",
+            )
+        });
     let (tau, sigma) = delay(&s);
     // `python3 scripts/delay-1d-reference.py` (one axis, the mode sampled exactly, apart
     // from the engine) gives σ 0.684 ms on this motion with attitude, rate or both.
