@@ -1215,9 +1215,9 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 t: msg.t,
                 q_bm_n: msg.q_bm_n,
             });
-            // The rates in every layout (their window's cover holds the velocity and
-            // rate channels, `measure`); the velocity trend only for the delay's
-            // velocity column and the g-sensitivity's rate column.
+            // The rates' run in every layout (its cover holds the velocity and rate
+            // channels, `measure`); the rates themselves and the velocity trend only for
+            // the delay's columns and the g-sensitivity's rate column.
             let keep = self.has_delay()
                 || self
                     .cfg
@@ -1225,12 +1225,12 @@ impl<T: Real, const S: usize> Engine<T, S> {
                     .offset(Effect::GyroGSensitivity)
                     .is_some();
             if let Some(w) = msg.w_ib_bm {
-                if self.past_master_rates.is_full() {
-                    let _ = self.past_master_rates.pop_front();
-                }
-                let _ = self.past_master_rates.push_back((msg.t, w));
                 self.rate_run.push(msg.t);
                 if keep {
+                    if self.past_master_rates.is_full() {
+                        let _ = self.past_master_rates.pop_front();
+                    }
+                    let _ = self.past_master_rates.push_back((msg.t, w));
                     self.master_trend.push(msg.t, &msg.v_n);
                 }
             }
@@ -1894,20 +1894,20 @@ impl RateRun {
         }
     }
 
-    /// A rate at `t` (later than the previous).
+    /// A rate at `t`: the run goes on, or (the first rate, one not later than the
+    /// previous, a gap) starts again at `t`.
     fn push(&mut self, t: f64) {
         let spacing = t - self.last;
-        let later = spacing > 0.0;
-        if !later || (self.shortest.is_finite() && spacing > 2.5 * self.shortest) {
+        let goes_on = self.last.is_finite() && spacing > 0.0 && spacing <= 2.5 * self.shortest;
+        if goes_on {
+            self.shortest = self.shortest.min(spacing);
+            self.last = t;
+        } else {
             *self = Self {
                 start: t,
                 last: t,
                 shortest: f64::INFINITY,
             };
-        } else {
-            self.shortest = self.shortest.min(spacing);
-            self.last = t;
-            self.start = self.start.min(t);
         }
     }
 
@@ -2044,8 +2044,9 @@ fn signature<T: Real>(
     // arm, its lever-arm terms from the master's rates, its own acceleration once the
     // line spans its window, rotated to the slave body by the estimated mounting. The
     // angular acceleration is the delay's quartic slope where the layout forms it,
-    // else the difference of the master's two previous rates (the polynomial's f64 sums
-    // cost ~290k instructions a message on the board). The rate channel needs a master
+    // else the difference of the master's two previous rates (the parabola's f64 sums
+    // that came before the quartic cost ~290k instructions a message on the board; the
+    // quartic, in `T`, is not measured there). The rate channel needs a master
     // that gives its rate; without one, the slave's force (unused).
     let f_carried_bs = match msg.w_ib_bm {
         Some(_) if g_sensitivity => {

@@ -1530,6 +1530,8 @@ fn update_n<T: Real>(
     let mut clamped = 0;
     let lo = f.iter().position(|&v| v != T::zero()).unwrap_or(n);
     let hi = f.iter().rposition(|&v| v != T::zero()).map_or(0, |j| j + 1);
+    // An all-zero f (lo = n, hi = 0) is an empty range: the update goes on as before.
+    let hi = hi.max(lo);
     let (Some(fs), Some(ds), Some(gs)) = (f.get_mut(lo..hi), d.get_mut(lo..hi), g.get(lo..hi))
     else {
         return refused;

@@ -131,7 +131,7 @@ fn set(config: &str, key: &str, line: &str) -> String {
 }
 
 #[test]
-fn a_20_ms_delay_is_found_with_every_channel_matched() {
+fn a_20_ms_delay_is_found_with_every_channel_matched_handed_its_model() {
     let tmp = tempfile::tempdir().unwrap();
     let s =
         truth_handed::calibrate_edited(tmp.path(), DRAW_129_DELAYED_20_MS, 1, |c| with_delay(&c));
@@ -146,7 +146,7 @@ fn a_20_ms_delay_is_found_with_every_channel_matched() {
 }
 
 #[test]
-fn attitude_and_rate_together_claim_no_more_than_a_reference_filter() {
+fn attitude_and_rate_together_claim_no_more_than_a_reference_filter_handed_its_model() {
     let tmp = tempfile::tempdir().unwrap();
     let s =
         truth_handed::calibrate_edited(tmp.path(), &draw_129_yaw_only_noise_free_5_ms(), 1, |c| {

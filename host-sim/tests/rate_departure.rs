@@ -66,7 +66,7 @@ lever_arm_error_m = [0.0, 0.0, 0.0]
 "#;
 
 #[test]
-fn rate_matching_against_a_noiseless_master_is_not_overconfident() {
+fn rate_matching_against_a_noiseless_master_is_not_overconfident_handed_its_model() {
     let tmp = tempfile::tempdir().unwrap();
     let s = truth_handed::calibrate(tmp.path(), NOISELESS_MASTER_DRAW_25, 25);
     // Each rate axis's mean NIS at most its band's upper edge (one-sided: the master's
