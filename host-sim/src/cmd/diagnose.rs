@@ -49,6 +49,17 @@ pub fn searched_model(prepared: &Prepared) -> (CalibConfig, Option<f64>) {
     (cfg, prepared.learned_with_delay_s)
 }
 
+/// The learned model the search may learn again where it competes with a candidate
+/// (`diagnose::Options::learned`): the searched model when it was learned from the
+/// recording and adopted; none when it is the user's (the fixed truth) or the start kept.
+pub fn learned_model(prepared: &Prepared, searched: &CalibConfig) -> Option<CalibConfig> {
+    prepared
+        .learned
+        .as_ref()
+        .filter(|l| l.adopted)
+        .map(|_| searched.clone())
+}
+
 /// Runs `flexcal diagnose`.
 pub fn run(a: &Args) -> Result<(), String> {
     let progress = crate::cmd::progress::Progress::start("reading the recording");
@@ -71,6 +82,7 @@ pub fn run(a: &Args) -> Result<(), String> {
         alpha: a.alpha,
         holdout_fraction: a.holdout_fraction,
         delay_start_s,
+        learned: learned_model(&prepared, &cfg),
     };
     progress.phase(&format!(
         "searching {} candidates (budget {})",

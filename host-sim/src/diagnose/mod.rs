@@ -30,7 +30,7 @@ pub mod spectrum;
 
 use crate::calib::config::CalibConfig;
 use crate::recording::Recording;
-use evaluate::{evaluate_model, ModelEval};
+use evaluate::{evaluate_model, Holdout, ModelEval};
 use flexcal_core::augment::{Effect, MAX_EFFECTS};
 use flexcal_core::stats::chi2_isf;
 
@@ -92,7 +92,16 @@ pub struct Options {
     /// before the filter when the model was learned with it compensated
     /// (`cmd::calibrate::Prepared::learned_with_delay_s`); none: the model's own delay.
     pub delay_start_s: Option<f64>,
+    /// The model learned from the recording, when it was (`learn`): the quantities of
+    /// it that compete with a rejected candidate are learned again with the candidate
+    /// in the layout (`learn::refit_competing`). `None`: the declared model is the
+    /// truth, nothing is learned again.
+    pub learned: Option<CalibConfig>,
 }
+
+/// Candidates per round whose competing learned quantities are learned again, at most
+/// (each costs a search of some thirty filter runs).
+pub const MAX_REFITS: usize = 2;
 
 impl Default for Options {
     fn default() -> Self {
@@ -102,6 +111,7 @@ impl Default for Options {
             alpha: 0.01,
             holdout_fraction: 0.7,
             delay_start_s: None,
+            learned: None,
         }
     }
 }
@@ -185,6 +195,33 @@ pub struct CandidateTest {
     /// over the delay's and the χ²(1) threshold that gain must exceed.
     #[serde(skip)]
     pub gain_over_delay: Option<(f64, f64)>,
+    /// A significant candidate the first tests rejected, tested again with the learned
+    /// quantities that compete with it learned again (`Options::learned`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refit: Option<RefitTest>,
+}
+
+/// A candidate tested again after the learned quantities that compete with it were
+/// learned again with it in the layout (`learn::refit_competing`).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct RefitTest {
+    /// What was learned again.
+    pub learned: crate::learn::Refit,
+    /// Wald statistic of the block with them.
+    pub wald: f64,
+    /// Likelihood ratio against the current model.
+    pub likelihood_ratio: f64,
+    /// Whether both exceed the threshold (and the estimate is above its floor and
+    /// plausible).
+    pub significant: bool,
+    /// Final estimate and σ of the block.
+    pub estimate: Vec<f64>,
+    /// Their σ.
+    pub sigma: Vec<f64>,
+    /// The structure's size with it.
+    pub size_after: f64,
+    /// The held-out likelihood ratio against the current model.
+    pub holdout_likelihood_ratio: f64,
 }
 
 /// One round of the search: every candidate tested against the current model.
@@ -267,6 +304,13 @@ fn backward(
             cfg.effects.retain(|e| e != t.effect);
             if effect.is_clock() {
                 cfg.initial_delay_s = declared.initial_delay_s;
+            }
+            // The learned quantities that compete with it found again without it, as
+            // they were learned again with it when it was adopted.
+            if let Some(learned) = opts.learned.as_ref() {
+                if let Some(r) = crate::learn::refit_competing(rec, &cfg, learned)? {
+                    cfg = r.cfg;
+                }
             }
             let without = evaluate::evaluate_model(rec, &cfg, opts.holdout_fraction)?;
             let threshold = opts.threshold(effect.states());
@@ -428,7 +472,16 @@ pub fn diagnose(
         _ => 0.0,
     };
     let before = evaluate_model(rec, declared, opts.holdout_fraction)?;
-    let (mut current, noise) = correct_noise(rec, &before, opts.alpha, opts.holdout_fraction)?;
+    // A learned model's channel noise is already matched per axis, down to the learner's
+    // floors (the f32 resolution, the master's smooth errors): scaled below them by √NIS,
+    // a noiseless master's attitude noise went 2e-6 → 1.2e-6 rad and its horizontal
+    // velocity noise 1 → 0.58 mm/s (blind draw 108), where every layout's likelihood
+    // then weighs what the floors exist to forgive (`docs/diagnosis.md`, "Session 15").
+    let (mut current, noise) = if opts.learned.is_some() {
+        (before.clone(), Vec::new())
+    } else {
+        correct_noise(rec, &before, opts.alpha, opts.holdout_fraction)?
+    };
     let mut rounds = Vec::new();
     let mut found = Vec::new();
     while found.len() < opts.budget {
@@ -505,6 +558,7 @@ pub fn diagnose(
                         plausible,
                         rate_test,
                         gain_over_delay: None,
+                        refit: None,
                     }
                 }
                 Err(e) => CandidateTest {
@@ -525,6 +579,7 @@ pub fn diagnose(
                     plausible: false,
                     rate_test: None,
                     gain_over_delay: None,
+                    refit: None,
                 },
             };
             tests.push(test);
@@ -556,7 +611,12 @@ pub fn diagnose(
         let base_size = size::total_excess(&base_sizes);
         let size_tolerance = size::chance_level(&base_sizes);
         let dominated = size::dominated(&base_sizes);
-        let mut best = None;
+        let explains = |size_after: f64| {
+            size_after <= base_size + size_tolerance
+                && (!dominated || size_after <= EXPLAINED_FRACTION_LEFT * base_size)
+        };
+        let mut best: Option<(usize, Holdout, Option<ModelEval>)> = None;
+        let mut refits = 0;
         for &(_, k) in &ranked {
             let (Some(Ok(run)), Some(test)) = (runs.get(k), tests.get_mut(k)) else {
                 continue;
@@ -568,14 +628,60 @@ pub fn diagnose(
             // grow beyond chance (an effect the vocabulary lacks, absorbed by a block
             // that does not name it, moves the structure rather than removing it), and
             // where the structure dominates an axis, it must remove at least half of it.
-            let explains = test.size_after <= base_size + size_tolerance
-                && (!dominated || test.size_after <= EXPLAINED_FRACTION_LEFT * base_size);
-            if gain > 0.0 && explains && best.is_none() {
-                best = Some((k, h));
+            if best.is_some() {
+                continue;
+            }
+            if gain > 0.0 && explains(test.size_after) {
+                best = Some((k, h, None));
+                continue;
+            }
+            // Rejected with the model learned without it: the learned quantities that
+            // compete with it (a smooth master error takes a lever arm's or a delay's
+            // signature) are learned again with it, and it is judged again (the
+            // likelihood ratio is then between two models each at its own optimum).
+            let (Some(learned), true) = (opts.learned.as_ref(), refits < MAX_REFITS) else {
+                continue;
+            };
+            let Some(refit) = crate::learn::refit_competing(rec, &run.cfg, learned)? else {
+                continue;
+            };
+            refits += 1;
+            let again = evaluate::run_model(rec, &refit.cfg)?;
+            let h_again = evaluate::holdout(rec, &again.cfg, opts.holdout_fraction)?;
+            let effect = untried.get(k).copied();
+            let block = again
+                .result
+                .final_effects()
+                .into_iter()
+                .find(|r| Some(r.effect) == effect);
+            let (wald, estimate, sigma) = block.map(|r| (r.wald, r.value, r.sigma)).unwrap_or((
+                f64::NAN,
+                Vec::new(),
+                Vec::new(),
+            ));
+            let lr = current.neg2ll - again.neg2ll;
+            let significant = wald > test.threshold
+                && lr > test.threshold
+                && effect
+                    .is_some_and(|e| above_floor(e, &estimate, span_s) && plausible(e, &estimate));
+            let size_after = size::total_excess(&size::axis_sizes(&again.result.innovations, rate));
+            let gain_again = base_holdout.map_or(f64::NAN, |b| b - h_again.neg2ll);
+            test.refit = Some(RefitTest {
+                learned: refit,
+                wald,
+                likelihood_ratio: lr,
+                significant,
+                estimate,
+                sigma,
+                size_after,
+                holdout_likelihood_ratio: gain_again,
+            });
+            if significant && gain_again > 0.0 && explains(size_after) {
+                best = Some((k, h_again, Some(again)));
             }
         }
         let model: Vec<&'static str> = present.blocks().map(|b| b.effect.name()).collect();
-        let Some((k, chosen_holdout)) = best else {
+        let Some((k, chosen_holdout, refitted)) = best else {
             rounds.push(Round {
                 model,
                 size: base_size,
@@ -587,10 +693,26 @@ pub fn diagnose(
             });
             break;
         };
-        let (Some(effect), Some(Ok(run))) = (untried.get(k), runs.into_iter().nth(k)) else {
+        let adopted_with_refit = refitted.is_some();
+        let (Some(effect), Some(Ok(run))) = (
+            untried.get(k),
+            refitted.map(Ok).or_else(|| runs.into_iter().nth(k)),
+        ) else {
             break;
         };
-        let test = tests.get(k).cloned();
+        // Adopted after its competing quantities were learned again: the adopted
+        // model's figures are the refit's.
+        let test = tests.get(k).cloned().map(|mut t| {
+            if let Some(r) = t.refit.as_ref().filter(|_| adopted_with_refit) {
+                t.wald = r.wald;
+                t.likelihood_ratio = r.likelihood_ratio;
+                t.estimate = r.estimate.clone();
+                t.sigma = r.sigma.clone();
+                t.size_after = r.size_after;
+                t.holdout_likelihood_ratio = Some(r.holdout_likelihood_ratio);
+            }
+            t
+        });
         rounds.push(Round {
             model,
             size: base_size,

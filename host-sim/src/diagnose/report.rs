@@ -296,9 +296,47 @@ pub fn decision(t: &CandidateTest, round: &Round) -> String {
         }
         return format!("not significant: {}", why.join("; "));
     }
+    let refit = t.refit.as_ref().map(refit_note);
     if round.added == Some(t.effect) {
-        return "adopted: significant, predicts the held-out part better and does not grow the structure's size".into();
+        return match refit {
+            Some(note) => format!("adopted once {note}"),
+            None => "adopted: significant, predicts the held-out part better and does not grow the structure's size".into(),
+        };
     }
+    let first = first_rejection(t, round);
+    match refit {
+        Some(note) => format!("{first}; then {note}: rejected again"),
+        None => first,
+    }
+}
+
+/// What learning the competing quantities again with the candidate changed, in a clause:
+/// the quantities that moved and the candidate's figures after.
+fn refit_note(r: &crate::diagnose::RefitTest) -> String {
+    let moved: Vec<String> = r
+        .learned
+        .values
+        .iter()
+        .filter(|v| v.value != v.start)
+        .map(|v| format!("{} {} → {}", v.name, fmt_g(v.start), fmt_g(v.value)))
+        .collect();
+    format!(
+        "the learned quantities that compete with it were learned again with it ({}): Wald {}, likelihood ratio {}, held-out likelihood ratio {}, structure's size {}",
+        if moved.is_empty() {
+            "none moved".to_string()
+        } else {
+            moved.join(", ")
+        },
+        fmt_g(r.wald),
+        fmt_g(r.likelihood_ratio),
+        fmt_g(r.holdout_likelihood_ratio),
+        fmt_g(r.size_after)
+    )
+}
+
+/// Why a significant candidate that was not adopted lost, by the first tests (the model
+/// as learned without it).
+fn first_rejection(t: &CandidateTest, round: &Round) -> String {
     let gain = t.holdout_likelihood_ratio.unwrap_or(f64::NAN);
     if gain.is_nan() || gain <= 0.0 {
         return format!(
