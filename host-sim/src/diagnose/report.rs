@@ -296,18 +296,27 @@ pub fn decision(t: &CandidateTest, round: &Round) -> String {
         }
         return format!("not significant: {}", why.join("; "));
     }
-    let refit = t.refit.as_ref().map(refit_note);
+    if let Some(r) = &t.refit {
+        let note = refit_note(r);
+        if round.added == Some(t.effect) {
+            return format!("adopted once {note}");
+        }
+        if !r.significant {
+            return format!("{note}: no longer significant");
+        }
+        return format!(
+            "{note}: {}",
+            rejection(r.holdout_likelihood_ratio, r.size_after, round)
+        );
+    }
     if round.added == Some(t.effect) {
-        return match refit {
-            Some(note) => format!("adopted once {note}"),
-            None => "adopted: significant, predicts the held-out part better and does not grow the structure's size".into(),
-        };
+        return "adopted: significant, predicts the held-out part better and does not grow the structure's size".into();
     }
-    let first = first_rejection(t, round);
-    match refit {
-        Some(note) => format!("{first}; then {note}: rejected again"),
-        None => first,
-    }
+    rejection(
+        t.holdout_likelihood_ratio.unwrap_or(f64::NAN),
+        t.size_after,
+        round,
+    )
 }
 
 /// What learning the competing quantities again with the candidate changed, in a clause:
@@ -321,7 +330,7 @@ fn refit_note(r: &crate::diagnose::RefitTest) -> String {
         .map(|v| format!("{} {} → {}", v.name, fmt_g(v.start), fmt_g(v.value)))
         .collect();
     format!(
-        "the learned quantities that compete with it were learned again with it ({}): Wald {}, likelihood ratio {}, held-out likelihood ratio {}, structure's size {}",
+        "the learned quantities that compete with it were learned again with it ({}; then Wald {}, likelihood ratio {}, held-out likelihood ratio {}, structure's size {})",
         if moved.is_empty() {
             "none moved".to_string()
         } else {
@@ -334,30 +343,29 @@ fn refit_note(r: &crate::diagnose::RefitTest) -> String {
     )
 }
 
-/// Why a significant candidate that was not adopted lost, by the first tests (the model
-/// as learned without it).
-fn first_rejection(t: &CandidateTest, round: &Round) -> String {
-    let gain = t.holdout_likelihood_ratio.unwrap_or(f64::NAN);
+/// Why a significant candidate that was not adopted lost, from its held-out likelihood
+/// gain and the structure's size it leaves.
+fn rejection(gain: f64, size_after: f64, round: &Round) -> String {
     if gain.is_nan() || gain <= 0.0 {
         return format!(
             "rejected: predicts the held-out part worse (held-out likelihood ratio {})",
             fmt_g(gain)
         );
     }
-    if t.size_after.is_nan() || t.size_after > round.size + round.size_tolerance {
+    if size_after.is_nan() || size_after > round.size + round.size_tolerance {
         return format!(
             "rejected: grows the structure's size from {} to {} (chance level {})",
             fmt_g(round.size),
-            fmt_g(t.size_after),
+            fmt_g(size_after),
             fmt_g(round.size_tolerance)
         );
     }
     let limit = crate::diagnose::EXPLAINED_FRACTION_LEFT * round.size;
-    if round.dominated && t.size_after > limit {
+    if round.dominated && size_after > limit {
         return format!(
             "rejected: the structure dominates a channel axis and it leaves {:.0}% of its size ({} of {}; at most {:.0}% allowed)",
-            100.0 * t.size_after / round.size,
-            fmt_g(t.size_after),
+            100.0 * size_after / round.size,
+            fmt_g(size_after),
             fmt_g(round.size),
             100.0 * crate::diagnose::EXPLAINED_FRACTION_LEFT
         );
