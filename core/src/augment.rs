@@ -32,6 +32,7 @@
 //! `docs/diagnosis.md` derives each column; `core/tests/linearization_f.rs` and
 //! `host-sim/tests/linearization_aug.rs` check them against the nonlinear models.
 
+use crate::mat::mul3;
 use crate::model::N;
 use crate::real::Real;
 use crate::rotation::skew;
@@ -583,7 +584,7 @@ pub fn add_measurement<T: Real, const S: usize>(
                 add_columns(rows, o, &row_major_columns(&sig.f_carried_bs))
             }
             (Effect::LeverArmError, Channel::Velocity) => {
-                add_columns(rows, o, &(sig.c_bm_n * skew(&sig.w_eb_bm)))
+                add_columns(rows, o, &mul3(&sig.c_bm_n, &skew(&sig.w_eb_bm)))
             }
             (Effect::LeverArmCoupling, Channel::Velocity) => {
                 // C [ω×] δR θ + C δR θ̇, δR's entries as the unknowns (row-major).

@@ -8,7 +8,7 @@ use crate::augment::{self, Augmentation, Channel, Effect, Signature, CLOCK_DRIFT
 use crate::earth::{self, Position};
 use crate::flexure::FlexureModel;
 use crate::kalman::{Health, Kalman, ScalarUpdate};
-use crate::mat::{self, vget};
+use crate::mat::{self, mul3v, transpose3, vget};
 use crate::model::{
     self, IntervalMeans, LeverBending, ProcessNoise, StateMat, StateVec, BA, BG, MU, N, PSI, TH,
     THD, V,
@@ -1722,7 +1722,7 @@ fn measure<T: Real>(
     // uses its own IMU intervals and its own master sample (white noise).
     let angular_rate = match (m.angular_rate && !held, msg.w_ib_bm, rate) {
         (true, Some(w_m), Some(slave_rate)) => {
-            let w_m_bs = exp_so3(&e.misalignment).transpose() * w_m;
+            let w_m_bs = mul3v(&transpose3(&exp_so3(&e.misalignment)), &w_m);
             // `model::rate_residual` with Exp(μ̂)ᵀ ω_m computed once.
             let z = (slave_rate.raw_b - e.gyro_bias) - w_m_bs;
             let arw = e.cfg.process_noise.gyro_arw;
@@ -1764,7 +1764,7 @@ fn attitude_blocks<T: Real>(
     theta: &Vector3<T>,
 ) -> model::Blocks<T> {
     model::attitude_blocks(
-        &inverse_right_jacobian_small(&(jr * theta)),
+        &inverse_right_jacobian_small(&mul3v(jr, theta)),
         &right_jacobian(&(misalignment + theta)),
     )
 }
@@ -1783,7 +1783,7 @@ fn master_rate_wrt_earth<T: Real>(
     c_bm_n: &Matrix3<T>,
 ) -> (Vector3<T>, T) {
     let noise = &cfg.measurement_noise;
-    let w_ie_b = c_bm_n.transpose() * here.earth_rate_n();
+    let w_ie_b = mul3v(&transpose3(c_bm_n), &here.earth_rate_n());
     if let Some(w) = msg.w_ib_bm {
         let sigma = noise.lever_arm_rate_radps;
         return (w - w_ie_b, sigma * sigma);
@@ -1794,7 +1794,10 @@ fn master_rate_wrt_earth<T: Real>(
             let w_nb = quat_log(&(p.q_bm_n.inverse() * msg.q_bm_n)) / dt;
             let w_en = here.transport_rate_n(&msg.v_n);
             let sigma = axes_rms(&noise.attitude_rad) / dt;
-            (w_nb + c_bm_n.transpose() * w_en, T::of(2.0) * sigma * sigma)
+            (
+                w_nb + mul3v(&transpose3(c_bm_n), &w_en),
+                T::of(2.0) * sigma * sigma,
+            )
         }
         _ => (Vector3::zeros(), T::zero()),
     }
@@ -1999,20 +2002,20 @@ fn signature<T: Real>(
     // a line through its past velocities weighted over `MASTER_ACCEL_WINDOW_S` (the
     // master's smooth error's increments, which a short window's slope carries, biased
     // it the other way: docs/diagnosis.md "Session 11").
-    let m_bs = exp_so3(&e.misalignment).transpose();
+    let m_bs = transpose3(&exp_so3(&e.misalignment));
     let g_sensitivity = e
         .cfg
         .augmentation
         .offset(Effect::GyroGSensitivity)
         .is_some();
-    let w_nb_bm = w_eb_bm - c_bm_n.transpose() * w_en;
+    let w_nb_bm = w_eb_bm - mul3v(&transpose3(c_bm_n), &w_en);
     let (w_nb_bs, w_dot_bs) = match (slope, msg.w_ib_bm) {
-        (Some(w_dot), _) => (m_bs * w_nb_bm, m_bs * w_dot),
+        (Some(w_dot), _) => (mul3v(&m_bs, &w_nb_bm), mul3v(&m_bs, &w_dot)),
         // The rate and velocity channels are held ([`measure`]): the attitude's column
         // is still the master's rate.
-        (None, Some(_)) => (m_bs * w_nb_bm, Vector3::zeros()),
+        (None, Some(_)) => (mul3v(&m_bs, &w_nb_bm), Vector3::zeros()),
         (None, None) => (
-            w_ib_bs - c_bs_n.transpose() * (w_ie + w_en),
+            w_ib_bs - mul3v(&transpose3(&c_bs_n), &(w_ie + w_en)),
             Vector3::zeros(),
         ),
     };

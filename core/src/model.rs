@@ -23,7 +23,7 @@ use crate::augment::{self, Augmentation};
 use crate::earth::{self, Position};
 use crate::flexure::FlexureModel;
 use crate::kalman::{Noise, Transition};
-use crate::mat;
+use crate::mat::{self, mul3, mul3v, transpose3};
 use crate::real::Real;
 use crate::rotation::skew;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
@@ -84,23 +84,6 @@ pub struct ProcessNoise<T> {
     pub accel_bias_rw: T,
     /// Misalignment random walk, rad/√s (0: rigid mount).
     pub misalignment_rw: T,
-}
-
-/// `a b`, each element `(a_i0 b_0j + a_i1 b_1j) + a_i2 b_2j` as nalgebra's product forms
-/// it (a column of `b` at a time: `1 · a_:0 · b_0j`, then `1 · a_:k · b_kj + 1 · c` for
-/// k = 1, 2; the ones are exact), written out: nalgebra's generic loops cost the board
-/// several times the 27 multiply-adds.
-fn mul3<T: Real>(a: &Matrix3<T>, b: &Matrix3<T>) -> Matrix3<T> {
-    let (a, b) = (&a.data.0, &b.data.0);
-    let [a0, a1, a2] = a;
-    let col = |[b0, b1, b2]: &[T; 3]| -> [T; 3] {
-        core::array::from_fn(|i| {
-            let at = |c: &[T; 3]| c.get(i).copied().unwrap_or_else(T::zero);
-            at(a0) * *b0 + at(a1) * *b1 + at(a2) * *b2
-        })
-    };
-    let [b0, b1, b2] = b;
-    Matrix3::from_data(nalgebra::ArrayStorage([col(b0), col(b1), col(b2)]))
 }
 
 /// Writes the 3 × 3 block `b` at row `r`, column `c` of `f`, `DYN` rows stored
@@ -393,8 +376,8 @@ pub fn velocity_blocks<T: Real>(
     match r_flex {
         Some(r) => blocks(&[
             (V, Matrix3::identity()),
-            (TH, c_bm_n * skew(w_eb_bm) * r),
-            (THD, c_bm_n * r),
+            (TH, mul3(&mul3(c_bm_n, &skew(w_eb_bm)), r)),
+            (THD, mul3(c_bm_n, r)),
         ]),
         None => blocks(&[(V, Matrix3::identity())]),
     }
@@ -424,7 +407,7 @@ pub fn attitude_rows<T: Real, const S: usize>(
 
 /// [`attitude_rows`]' blocks.
 pub fn attitude_blocks<T: Real>(jr_inv_a: &Matrix3<T>, jr_mu_theta: &Matrix3<T>) -> Blocks<T> {
-    let j = jr_inv_a * jr_mu_theta;
+    let j = mul3(jr_inv_a, jr_mu_theta);
     blocks(&[(PSI, *jr_inv_a), (MU, j), (TH, j)])
 }
 
@@ -438,7 +421,7 @@ pub fn rate_rows<T: Real, const S: usize>(w_m_bs: &Vector3<T>, jr_mu: &Matrix3<T
 
 /// [`rate_rows`]' blocks.
 pub fn rate_blocks<T: Real>(w_m_bs: &Vector3<T>, jr_mu: &Matrix3<T>) -> Blocks<T> {
-    let wj = skew(w_m_bs) * jr_mu;
+    let wj = mul3(&skew(w_m_bs), jr_mu);
     blocks(&[(MU, wj), (BG, Matrix3::identity()), (TH, wj), (THD, *jr_mu)])
 }
 
@@ -476,7 +459,7 @@ pub fn velocity_residual<T: Real>(
     w_eb_bm: &Vector3<T>,
     r0_bm: &Vector3<T>,
 ) -> Vector3<T> {
-    v_slave_n - v_master_n - c_bm_n * w_eb_bm.cross(r0_bm)
+    v_slave_n - v_master_n - mul3v(c_bm_n, &w_eb_bm.cross(r0_bm))
 }
 
 /// Nonlinear attitude-matching residual (rad, slave body): `Log(Exp(−μ̂) C_bm^nᵀ Ĉ_bs^n)`.
@@ -485,9 +468,10 @@ pub fn attitude_residual<T: Real>(
     c_bm_n: &Matrix3<T>,
     c_bs_n_hat: &Matrix3<T>,
 ) -> Vector3<T> {
-    crate::rotation::log_so3(
-        &(crate::rotation::exp_so3(&(-mu_hat)) * c_bm_n.transpose() * c_bs_n_hat),
-    )
+    crate::rotation::log_so3(&mul3(
+        &mul3(&crate::rotation::exp_so3(&(-mu_hat)), &transpose3(c_bm_n)),
+        c_bs_n_hat,
+    ))
 }
 
 /// Nonlinear angular-rate-matching residual (rad/s, slave body): the slave's
@@ -497,5 +481,5 @@ pub fn rate_residual<T: Real>(
     mu_hat: &Vector3<T>,
     w_master_bm: &Vector3<T>,
 ) -> Vector3<T> {
-    w_slave_corrected_bs - crate::rotation::exp_so3(mu_hat).transpose() * w_master_bm
+    w_slave_corrected_bs - mul3v(&transpose3(&crate::rotation::exp_so3(mu_hat)), w_master_bm)
 }

@@ -73,6 +73,7 @@ use crate::augment::{self, Effect};
 use crate::earth;
 use crate::engine::{EngineConfig, MasterNav, MatchReport};
 use crate::kalman::ScalarUpdate;
+use crate::mat::{mul3v, transpose3};
 use crate::real::Real;
 use crate::rotation::{dcm, quat_exp};
 use nalgebra::{Matrix3, Vector3};
@@ -276,7 +277,7 @@ impl<T: Real> Watch<T> {
         let omega = T::of(earth::OMEGA_IE);
         let w_ie_n = Vector3::new(T::zero(), omega * cos_lat, omega * sin_lat);
         let c_bm_n = dcm(&m.q_bm_n);
-        let w_eb_bm = w_ib_bm - c_bm_n.transpose() * w_ie_n;
+        let w_eb_bm = w_ib_bm - mul3v(&transpose3(&c_bm_n), &w_ie_n);
         let w_dot_bm = match self.rates {
             [Some((t1, w1)), _, Some((t3, w3))] if t1 > t3 && t1 - t3 < 1.0 => {
                 (w1 - w3) / T::of(t1 - t3)
