@@ -1488,7 +1488,9 @@ impl<T: Real, const S: usize> Engine<T, S> {
         out: &mut [ScalarUpdate<T>; 3],
     ) {
         let _phase = probe::enter(Phase::Update);
-        for (((row, slot), z), r) in rows.iter().zip(out.iter_mut()).zip(z.iter()).zip(r.iter()) {
+        // `z` and `r` as slices (nalgebra's iterators are loops of their own on the board).
+        let (z, r) = (z.as_slice(), r.as_slice());
+        for (((row, slot), z), r) in rows.iter().zip(out.iter_mut()).zip(z).zip(r) {
             *slot = self.kf.update_scalar_on(row, cols, *z, *r, gate);
         }
     }

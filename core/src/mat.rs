@@ -103,6 +103,12 @@ pub fn transpose3<T: Real>(a: &Matrix3<T>) -> Matrix3<T> {
     ]))
 }
 
+/// `−a`, element by element (nalgebra's negation is a loop on the board).
+#[inline(always)]
+pub fn neg3<T: Real>(a: &Matrix3<T>) -> Matrix3<T> {
+    zip3(a, a, |_, _, x, _| -x)
+}
+
 /// `a ∘ b` element by element, `f(i, j, a_ij, b_ij)`: nalgebra's element-wise sums and
 /// scalings of 3 × 3 matrices, each element's arithmetic written out once (each
 /// operation a loop of its own on the board). Plain loops: `array::from_fn` left its

@@ -23,7 +23,7 @@ use crate::augment::{self, Augmentation};
 use crate::earth::{self, Position};
 use crate::flexure::FlexureModel;
 use crate::kalman::{Noise, Transition};
-use crate::mat::{self, mul3, mul3v, transpose3};
+use crate::mat::{self, mul3, mul3v, neg3, transpose3, zip3};
 use crate::real::Real;
 use crate::rotation::skew;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
@@ -87,12 +87,13 @@ pub struct ProcessNoise<T> {
 }
 
 /// Writes the 3 × 3 block `b` at row `r`, column `c` of `f`, `DYN` rows stored
-/// column-major.
+/// column-major (`b`'s columns as arrays: nalgebra's column iterator is a loop of its
+/// own on the board).
 fn put<T: Real>(f: &mut [T], r: usize, c: usize, b: &Matrix3<T>) {
-    for (k, col) in b.column_iter().enumerate() {
+    for (k, col) in b.data.0.iter().enumerate() {
         let at = (c + k) * DYN + r;
-        if let Some(dst) = f.get_mut(at..at + 3) {
-            dst.copy_from_slice(col.as_slice());
+        if let Some([d0, d1, d2]) = f.get_mut(at..at + 3) {
+            [*d0, *d1, *d2] = *col;
         }
     }
 }
@@ -110,13 +111,19 @@ fn nav_dynamics_rows<T: Real>(m: &IntervalMeans<T>, f: &mut [T]) {
     let w_en = here.transport_rate_n(&m.v_n);
     let d_wen_dv = here.transport_rate_jacobian();
     // δv̇ = (−[(2ω_ie+ω_en)×] + [v×] ∂ω_en/∂v) δv − C[f×] ψ + C ∇
-    let fvv = -skew(&(w_ie * T::of(2.0) + w_en)) + mul3(&skew(&m.v_n), &d_wen_dv);
+    // (The negations, the sum and the transpose element by element: nalgebra's are a
+    // loop each on the board.)
+    let fvv = zip3(
+        &skew(&(w_ie * T::of(2.0) + w_en)),
+        &mul3(&skew(&m.v_n), &d_wen_dv),
+        |_, _, a, b| -a + b,
+    );
     put(f, V, V, &fvv);
-    put(f, V, PSI, &(-mul3(&m.c_b_n, &skew(&m.f_b))));
+    put(f, V, PSI, &neg3(&mul3(&m.c_b_n, &skew(&m.f_b))));
     put(f, V, BA, &m.c_b_n);
     // ψ̇ = −Cᵀ ∂ω_en/∂v δv − [ω_ib×] ψ + ε
-    put(f, PSI, V, &(-mul3(&m.c_b_n.transpose(), &d_wen_dv)));
-    put(f, PSI, PSI, &(-skew(&m.w_ib_b)));
+    put(f, PSI, V, &neg3(&mul3(&transpose3(&m.c_b_n), &d_wen_dv)));
+    put(f, PSI, PSI, &neg3(&skew(&m.w_ib_b)));
     put(f, PSI, BG, &Matrix3::identity());
 }
 
@@ -341,14 +348,16 @@ pub fn rows_from_blocks<T: Real, const S: usize>(blocks: &Blocks<T>) -> Rows<T, 
 
 /// Writes `blocks` into `rows` (the other elements left as they are): the engine's rows
 /// built in place (returned by [`rows_from_blocks`], they were copied once more on the
-/// board, 0.7k instructions per master update).
+/// board, 0.7k instructions per master update). Each block's row `axis` read from its
+/// column arrays and written as three elements (element by element through nalgebra's
+/// checked access it cost the board ≈ 0.7k instructions a master update as well).
 pub fn put_blocks<T: Real, const S: usize>(rows: &mut Rows<T, S>, blocks: &Blocks<T>) {
     for (axis, row) in rows.iter_mut().enumerate() {
         for (offset, b) in blocks {
-            for k in 0..3 {
-                if let Some(e) = row.get_mut(offset + k) {
-                    *e = mat::get(b, axis, k);
-                }
+            let [c0, c1, c2] = &b.data.0;
+            let at = |c: &[T; 3]| c.get(axis).copied().unwrap_or_else(T::zero);
+            if let Some([e0, e1, e2]) = row.as_mut_slice().get_mut(*offset..offset + 3) {
+                [*e0, *e1, *e2] = [at(c0), at(c1), at(c2)];
             }
         }
     }
