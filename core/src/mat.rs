@@ -171,6 +171,9 @@ mod tests {
                 transpose3(&a).as_slice(),
                 a.transpose().as_slice()
             ));
+            assert!(same_bits(neg3(&a).as_slice(), (-a).as_slice()));
+            let sum = zip3(&a, &b, |_, _, x, y| -x + y);
+            assert!(same_bits(sum.as_slice(), (-a + b).as_slice()));
             let phi = v * T::of(1e-2);
             let k = skew(&phi);
             // The closed forms' coefficients, as `right_jacobian` takes them.
