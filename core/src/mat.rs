@@ -52,10 +52,10 @@ pub fn set_pair<T: Real, const R: usize>(
     set(m, j, j, get(b, 1, 1));
 }
 
-/// Element `i` of a vector, or zero outside it.
+/// Element `i` of a vector, or zero outside it (from its slice).
 #[inline]
 pub fn vget<T: Real, const R: usize>(v: &nalgebra::SVector<T, R>, i: usize) -> T {
-    v.get(i).copied().unwrap_or_else(T::zero)
+    v.as_slice().get(i).copied().unwrap_or_else(T::zero)
 }
 
 /// Column `j` of `b` times `a`: element `i` is `(a_i0 b_0 + a_i1 b_1) + a_i2 b_2`, the
