@@ -8,7 +8,7 @@
 //! times the arithmetic (issue12-s15: 2.9k instructions a master update).
 
 use crate::real::Real;
-use nalgebra::{Matrix3, SMatrix, Vector3};
+use nalgebra::{Matrix3, SMatrix, UnitQuaternion, Vector3, Vector4};
 
 /// A zero matrix written as its array: nalgebra's `zeros()` builds it from an iterator,
 /// which the board's size-optimized image does through a temporary and a copy (the
@@ -109,6 +109,32 @@ pub fn neg3<T: Real>(a: &Matrix3<T>) -> Matrix3<T> {
     zip3(a, a, |_, _, x, _| -x)
 }
 
+/// The vector `(f(0), f(1), f(2))`: nalgebra's element-wise vector sums and scalings
+/// written out, each element's arithmetic as nalgebra's operations form it (each
+/// operation a loop of three on the board, through memory). `f` reads its operands with
+/// [`vget`], whose checks fold away at the constant indices.
+#[inline(always)]
+pub fn vec3<T: Real>(f: impl Fn(usize) -> T) -> Vector3<T> {
+    Vector3::new(f(0), f(1), f(2))
+}
+
+/// [`vec3`] for four elements (a quaternion's coordinates).
+#[inline(always)]
+pub fn vec4<T: Real>(f: impl Fn(usize) -> T) -> Vector4<T> {
+    Vector4::new(f(0), f(1), f(2), f(3))
+}
+
+/// `q v` for a unit quaternion, as nalgebra's `q * v` forms it (`t = 2 (q_v × v)`,
+/// then `t w + q_v × t + v`), its element-wise operations written out.
+#[inline(always)]
+pub fn rotate3<T: Real>(q: &UnitQuaternion<T>, v: &Vector3<T>) -> Vector3<T> {
+    let (qv, w, two) = (q.imag(), q.w, T::of(2.0));
+    let c = qv.cross(v);
+    let t = vec3(|i| vget(&c, i) * two);
+    let cross = qv.cross(&t);
+    vec3(|i| (vget(&t, i) * w + vget(&cross, i)) + vget(v, i))
+}
+
 /// `a ∘ b` element by element, `f(i, j, a_ij, b_ij)`: nalgebra's element-wise sums and
 /// scalings of 3 × 3 matrices, each element's arithmetic written out once (each
 /// operation a loop of its own on the board). Plain loops: `array::from_fn` left its
@@ -174,6 +200,13 @@ mod tests {
             assert!(same_bits(neg3(&a).as_slice(), (-a).as_slice()));
             let sum = zip3(&a, &b, |_, _, x, y| -x + y);
             assert!(same_bits(sum.as_slice(), (-a + b).as_slice()));
+            let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+                T::one(),
+                a.m11,
+                a.m21,
+                a.m31,
+            ));
+            assert!(same_bits(rotate3(&q, &v).as_slice(), (q * v).as_slice()));
             let phi = v * T::of(1e-2);
             let k = skew(&phi);
             // The closed forms' coefficients, as `right_jacobian` takes them.
