@@ -8,7 +8,7 @@ use crate::augment::{self, Augmentation, Channel, Effect, Signature, CLOCK_DRIFT
 use crate::earth::{self, Position};
 use crate::flexure::FlexureModel;
 use crate::kalman::{Health, Kalman, ScalarUpdate};
-use crate::mat::{self, mul3v, transpose3, vget};
+use crate::mat::{self, mul3v, transpose3, vec3, vget, zip3};
 use crate::model::{
     self, IntervalMeans, LeverBending, ProcessNoise, StateMat, StateVec, BA, BG, MU, N, PSI, TH,
     THD, V,
@@ -1737,7 +1737,10 @@ fn measure<T: Real>(
         (true, Some(w_m), Some(slave_rate)) => {
             let w_m_bs = mul3v(&transpose3(&exp_so3(&e.misalignment)), &w_m);
             // `model::rate_residual` with Exp(μ̂)ᵀ ω_m computed once.
-            let z = (slave_rate.raw_b - e.gyro_bias) - w_m_bs;
+            // (Element by element, as nalgebra's operations form them: a loop each on the
+            // board.)
+            let z =
+                vec3(|i| (vget(&slave_rate.raw_b, i) - vget(&e.gyro_bias, i)) - vget(&w_m_bs, i));
             let arw = e.cfg.process_noise.gyro_arw;
             let gyro = arw * arw * T::of(slave_rate.noise_gain);
             // The slave's rate is a mean over IMU intervals, the flexure state read at
@@ -1748,8 +1751,11 @@ fn measure<T: Real>(
             // here it left structure on the rate (docs/diagnosis.md "Session 13").
             let q = Vector3::from(e.cfg.flexure.axes.map(|a| a.rate_diffusion()));
             let departure = slave_rate.departure_gain;
-            let flex = jr.component_mul(&jr) * q * departure;
-            let r = noise.rate_radps.zip_map(&flex, |s, f| s * s + gyro + f);
+            let carried = mul3v(&zip3(&jr, &jr, |_, _, a, b| a * b), &q);
+            let r = vec3(|i| {
+                let s = vget(&noise.rate_radps, i);
+                (s * s + gyro) + vget(&carried, i) * departure
+            });
             Some(Measured {
                 z,
                 blocks: model::rate_blocks(&w_m_bs, &jr),

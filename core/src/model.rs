@@ -23,7 +23,7 @@ use crate::augment::{self, Augmentation};
 use crate::earth::{self, Position};
 use crate::flexure::FlexureModel;
 use crate::kalman::{Noise, Transition};
-use crate::mat::{self, mul3, mul3v, neg3, transpose3, zip3};
+use crate::mat::{self, mul3, mul3v, neg3, transpose3, vec3, vget, zip3};
 use crate::real::Real;
 use crate::rotation::skew;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
@@ -451,9 +451,13 @@ impl LeverBending {
         match self {
             Self::Paper => {
                 let z = T::zero();
-                Matrix3::new(z, r0.z, z, z, z, r0.x, r0.y, z, z) * h
+                let m = Matrix3::new(z, r0.z, z, z, z, r0.x, r0.y, z, z);
+                zip3(&m, &m, |_, _, x, _| x * h)
             }
-            Self::UniformArc => -skew(r0) * h,
+            Self::UniformArc => {
+                let m = skew(r0);
+                zip3(&m, &m, |_, _, x, _| -x * h)
+            }
         }
     }
 }
@@ -468,7 +472,8 @@ pub fn velocity_residual<T: Real>(
     w_eb_bm: &Vector3<T>,
     r0_bm: &Vector3<T>,
 ) -> Vector3<T> {
-    v_slave_n - v_master_n - mul3v(c_bm_n, &w_eb_bm.cross(r0_bm))
+    let lever = mul3v(c_bm_n, &w_eb_bm.cross(r0_bm));
+    vec3(|i| (vget(v_slave_n, i) - vget(v_master_n, i)) - vget(&lever, i))
 }
 
 /// Nonlinear attitude-matching residual (rad, slave body): `Log(Exp(−μ̂) C_bm^nᵀ Ĉ_bs^n)`.
