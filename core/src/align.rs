@@ -241,7 +241,8 @@ impl<T: Real, const M: usize> AlignBuffer<T, M> {
     pub fn correct_since(&mut self, t: f64, dv_n: &Vector3<T>, psi_b: &Vector3<T>) {
         let r = quat_exp(&(-psi_b));
         for s in self.ring.iter_mut().rev() {
-            s.v_n -= dv_n;
+            // (Element by element, as nalgebra's `-=`: a loop of its own on the board.)
+            s.v_n = vec3(|i| vget(&s.v_n, i) - vget(dv_n, i));
             s.q_b_n *= r;
             if s.t < t {
                 break;

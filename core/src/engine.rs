@@ -1053,9 +1053,12 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 sd.reset_history();
             }
             let dtt = T::of(dt);
+            // (Element by element, as nalgebra's operations form them: a loop each on
+            // the board, at every IMU sample.)
+            let (bg, ba) = (&self.gyro_bias, &self.accel_bias);
             let inc = Increments {
-                dtheta_b: s.dtheta_b - self.gyro_bias * dtt,
-                dv_b: s.dv_b - self.accel_bias * dtt,
+                dtheta_b: vec3(|i| vget(&s.dtheta_b, i) - vget(bg, i) * dtt),
+                dv_b: vec3(|i| vget(&s.dv_b, i) - vget(ba, i) * dtt),
                 dt: dtt,
             };
             {
@@ -1072,8 +1075,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 dt,
             });
             if let Some(ep) = self.epoch.as_mut() {
-                ep.dtheta += inc.dtheta_b;
-                ep.dv += inc.dv_b;
+                ep.dtheta = vec3(|i| vget(&ep.dtheta, i) + vget(&inc.dtheta_b, i));
+                ep.dv = vec3(|i| vget(&ep.dv, i) + vget(&inc.dv_b, i));
                 ep.dt += dt;
             }
             self.maybe_predict(s.t);
@@ -1101,14 +1104,14 @@ impl<T: Real, const S: usize> Engine<T, S> {
             return;
         };
         let dtt = T::of(ep.dt);
-        let f_b = ep.dv / dtt;
+        let f_b = vec3(|i| vget(&ep.dv, i) / dtt);
         let means = IntervalMeans {
             f_b,
             // The slave's mean force holds the bending arm's `R θ̈` of the period, which
             // the flexure states have not yet predicted: the master's force where it
             // carries one (docs/diagnosis.md "Session 12").
             f_g_b: self.g_force_bs.unwrap_or(f_b),
-            w_ib_b: ep.dtheta / dtt,
+            w_ib_b: vec3(|i| vget(&ep.dtheta, i) / dtt),
             c_b_n: dcm(&nlerp(&ep.q_start, &nav.q_b_n, T::of(0.5))),
             v_n: nav.v_n,
             pos: nav.pos,

@@ -5,7 +5,7 @@
 //! part `w` first in `Quaternion::new(w, i, j, k)`, and `q * v` computes `q ⊗ v ⊗ q*`:
 //! exactly the recording format's `q_b^n` convention.
 
-use crate::mat::{mul3, zip3};
+use crate::mat::{mul3, vec4, vget, zip3};
 use crate::real::Real;
 use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 
@@ -149,11 +149,15 @@ pub fn right_jacobian_series<T: Real>(a: T) -> (T, T) {
 /// second order in the angle between them, which is what a few-millisecond gap needs.
 pub fn nlerp<T: Real>(q0: &UnitQuaternion<T>, q1: &UnitQuaternion<T>, s: T) -> UnitQuaternion<T> {
     let b = if q0.coords.dot(&q1.coords) < T::zero() {
-        -q1.coords
+        vec4(|i| -vget(&q1.coords, i))
     } else {
         q1.coords
     };
-    normalize(&Quaternion::from(q0.coords * (T::one() - s) + b * s))
+    // `q0 (1 − s) + b s`, element by element as nalgebra's operations form it.
+    let w0 = T::one() - s;
+    normalize(&Quaternion::from(vec4(|i| {
+        vget(&q0.coords, i) * w0 + vget(&b, i) * s
+    })))
 }
 
 /// The unit quaternion of `q`'s direction: nalgebra's `UnitQuaternion::new_normalize`
@@ -161,9 +165,8 @@ pub fn nlerp<T: Real>(q0: &UnitQuaternion<T>, q1: &UnitQuaternion<T>, s: T) -> U
 /// (the FPU's square root on the board, not `libm`'s software one).
 #[inline]
 pub fn normalize<T: Real>(q: &Quaternion<T>) -> UnitQuaternion<T> {
-    UnitQuaternion::new_unchecked(Quaternion::from(
-        q.coords / q.coords.norm_squared().sqrt_fast(),
-    ))
+    let n = q.coords.norm_squared().sqrt_fast();
+    UnitQuaternion::new_unchecked(Quaternion::from(vec4(|i| vget(&q.coords, i) / n)))
 }
 
 /// Direction cosine matrix of a unit quaternion (`C_b^n` from `q_b^n`).
