@@ -295,8 +295,8 @@ impl<T: Real> Watch<T> {
                     &w_dot_bm,
                     &self.lever_arm_m,
                 ),
-                attitude: self.bm_to_bs * w_eb_bm,
-                rate: self.bm_to_bs * w_dot_bm,
+                attitude: mul3v(&self.bm_to_bs, &w_eb_bm),
+                rate: mul3v(&self.bm_to_bs, &w_dot_bm),
             };
         }
         self.next = (self.next + 1) % RING;
