@@ -324,7 +324,8 @@ impl<T: Real> Watch<T> {
         let (mut score, mut info) = (T::zero(), T::zero());
         for ((updates, col), sums) in channels.iter().zip(self.axes.chunks_exact_mut(3)) {
             let Some(updates) = updates else { continue };
-            for ((u, c), a) in updates.iter().zip(col.iter()).zip(sums.iter_mut()) {
+            // (`col` as a slice: nalgebra's iterator is a loop of its own on the board.)
+            for ((u, c), a) in updates.iter().zip(col.as_slice()).zip(sums.iter_mut()) {
                 let (s, i) = a.push(u, *c, decay);
                 score += s;
                 info += i;
