@@ -32,7 +32,7 @@
 //! `docs/diagnosis.md` derives each column; `core/tests/linearization_f.rs` and
 //! `host-sim/tests/linearization_aug.rs` check them against the nonlinear models.
 
-use crate::mat::mul3;
+use crate::mat::{mul3, mul3v, vec3, vget};
 use crate::model::N;
 use crate::real::Real;
 use crate::rotation::skew;
@@ -522,7 +522,12 @@ pub fn carried_specific_force<T: Real>(
     coriolis_n: &Vector3<T>,
     c_n_bs: &Matrix3<T>,
 ) -> Vector3<T> {
-    c_n_bs * (a_c_n - g_n + coriolis_n)
+    // (Element by element and the product written out, as nalgebra forms them: a loop
+    // each on the board.)
+    mul3v(
+        c_n_bs,
+        &vec3(|i| (vget(a_c_n, i) - vget(g_n, i)) + vget(coriolis_n, i)),
+    )
 }
 
 /// Which matching measurement a row belongs to.

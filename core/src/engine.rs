@@ -8,7 +8,7 @@ use crate::augment::{self, Augmentation, Channel, Effect, Signature, CLOCK_DRIFT
 use crate::earth::{self, Position};
 use crate::flexure::FlexureModel;
 use crate::kalman::{Health, Kalman, ScalarUpdate};
-use crate::mat::{self, mul3v, transpose3, vec3, vget, zip3};
+use crate::mat::{self, mul3, mul3v, transpose3, vec3, vget, zip3};
 use crate::model::{
     self, IntervalMeans, LeverBending, ProcessNoise, StateMat, StateVec, BA, BG, MU, N, PSI, TH,
     THD, V,
@@ -2095,11 +2095,12 @@ fn signature<T: Real>(
                     &e.cfg.lever_arm_m,
                 ),
             };
+            let two = T::of(2.0);
             augment::carried_specific_force(
                 &a_c,
                 &here.gravity_n(),
-                &(w_ie * T::of(2.0) + w_en).cross(&slave.v_n),
-                &(m_bs * c_bm_n.transpose()),
+                &vec3(|i| vget(&w_ie, i) * two + vget(&w_en, i)).cross(&slave.v_n),
+                &mul3(&m_bs, &transpose3(c_bm_n)),
             )
         }
         _ => f_bs,
@@ -2107,7 +2108,7 @@ fn signature<T: Real>(
     Signature {
         c_bm_n: *c_bm_n,
         w_eb_bm: *w_eb_bm,
-        lever_v_n: c_bm_n * w_eb_bm.cross(&e.cfg.lever_arm_m),
+        lever_v_n: mul3v(c_bm_n, &w_eb_bm.cross(&e.cfg.lever_arm_m)),
         v_dot_n,
         w_nb_bs,
         w_dot_bs,
