@@ -2,6 +2,7 @@
 //! master message is matched against the slave *at the message's time of validity*,
 //! never at its arrival.
 
+use crate::mat::{vec3, vget};
 use crate::real::Real;
 use crate::rotation::{nlerp, quat_exp};
 use heapless::Deque;
@@ -202,13 +203,15 @@ impl<T: Real, const M: usize> AlignBuffer<T, M> {
         };
         let (m0, m1) = (p.t - p.dt / 2.0, s.t - s.dt / 2.0);
         let lambda = if m1 > m0 { (t - m0) / (m1 - m0) } else { 1.0 };
-        let r0 = p.dtheta_raw_b / T::of(p.dt);
-        let r1 = s.dtheta_raw_b / T::of(s.dt);
-        let f0 = p.dv_raw_b / T::of(p.dt);
-        let f1 = s.dv_raw_b / T::of(s.dt);
+        // `(x / dt_p) (1 − λ) + (y / dt_s) λ`, element by element as nalgebra's vector
+        // operations form it (a loop each on the board).
+        let (w0, w1, dt0, dt1) = (T::of(1.0 - lambda), T::of(lambda), T::of(p.dt), T::of(s.dt));
+        let mix = |x: &Vector3<T>, y: &Vector3<T>| {
+            vec3(|i| (vget(x, i) / dt0) * w0 + (vget(y, i) / dt1) * w1)
+        };
         Ok(RateAt {
-            raw_b: r0 * T::of(1.0 - lambda) + r1 * T::of(lambda),
-            f_raw_b: f0 * T::of(1.0 - lambda) + f1 * T::of(lambda),
+            raw_b: mix(&p.dtheta_raw_b, &s.dtheta_raw_b),
+            f_raw_b: mix(&p.dv_raw_b, &s.dv_raw_b),
 
             noise_gain: (1.0 - lambda) * (1.0 - lambda) / p.dt + lambda * lambda / s.dt,
             departure_gain: departure_gain(
@@ -238,7 +241,8 @@ impl<T: Real, const M: usize> AlignBuffer<T, M> {
     pub fn correct_since(&mut self, t: f64, dv_n: &Vector3<T>, psi_b: &Vector3<T>) {
         let r = quat_exp(&(-psi_b));
         for s in self.ring.iter_mut().rev() {
-            s.v_n -= dv_n;
+            // (Element by element, as nalgebra's `-=`: a loop of its own on the board.)
+            s.v_n = vec3(|i| vget(&s.v_n, i) - vget(dv_n, i));
             s.q_b_n *= r;
             if s.t < t {
                 break;

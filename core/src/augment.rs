@@ -32,6 +32,7 @@
 //! `docs/diagnosis.md` derives each column; `core/tests/linearization_f.rs` and
 //! `host-sim/tests/linearization_aug.rs` check them against the nonlinear models.
 
+use crate::mat::{mul3, mul3v, vec3, vget};
 use crate::model::N;
 use crate::real::Real;
 use crate::rotation::skew;
@@ -521,7 +522,12 @@ pub fn carried_specific_force<T: Real>(
     coriolis_n: &Vector3<T>,
     c_n_bs: &Matrix3<T>,
 ) -> Vector3<T> {
-    c_n_bs * (a_c_n - g_n + coriolis_n)
+    // (Element by element and the product written out, as nalgebra forms them: a loop
+    // each on the board.)
+    mul3v(
+        c_n_bs,
+        &vec3(|i| (vget(a_c_n, i) - vget(g_n, i)) + vget(coriolis_n, i)),
+    )
 }
 
 /// Which matching measurement a row belongs to.
@@ -583,7 +589,7 @@ pub fn add_measurement<T: Real, const S: usize>(
                 add_columns(rows, o, &row_major_columns(&sig.f_carried_bs))
             }
             (Effect::LeverArmError, Channel::Velocity) => {
-                add_columns(rows, o, &(sig.c_bm_n * skew(&sig.w_eb_bm)))
+                add_columns(rows, o, &mul3(&sig.c_bm_n, &skew(&sig.w_eb_bm)))
             }
             (Effect::LeverArmCoupling, Channel::Velocity) => {
                 // C [ω×] δR θ + C δR θ̇, δR's entries as the unknowns (row-major).

@@ -8,7 +8,7 @@ use crate::augment::{self, Augmentation, Channel, Effect, Signature, CLOCK_DRIFT
 use crate::earth::{self, Position};
 use crate::flexure::FlexureModel;
 use crate::kalman::{Health, Kalman, ScalarUpdate};
-use crate::mat::{self, vget};
+use crate::mat::{self, mul3, mul3v, transpose3, vec3, vget, zip3};
 use crate::model::{
     self, IntervalMeans, LeverBending, ProcessNoise, StateMat, StateVec, BA, BG, MU, N, PSI, TH,
     THD, V,
@@ -355,6 +355,10 @@ pub struct Engine<T: Real, const S: usize = N> {
     clock_t0: Option<f64>,
     /// Whether the calibrated quantities are frozen (`freeze_calibration`).
     frozen: bool,
+    /// Whether `cfg`'s layout carries the master delay ([`Engine::has_delay`]), kept with
+    /// `cfg`: asked at every IMU sample and master message, the scan of the layout's
+    /// blocks cost the board ≈ 0.4k instructions a master update.
+    has_delay: bool,
     /// The master's last angular rates `(t, ω_ib^bm)` (for the delay's rate column).
     past_master_rates: Deque<(f64, Vector3<T>), RATE_HISTORY>,
     /// Where the master's rates run without a gap ([`RateRun`]).
@@ -512,6 +516,11 @@ fn static_states<T: Real>(cfg: &EngineConfig<T>) -> impl Fn(usize) -> bool {
     move |i| mask >> i.min(63) & 1 == 1
 }
 
+/// Whether `cfg`'s layout carries the master delay: `time_delay` or `clock_drift`.
+fn layout_has_delay<T: Real>(cfg: &EngineConfig<T>) -> bool {
+    cfg.augmentation.blocks().any(|b| b.effect.is_clock())
+}
+
 impl<T: Real, const S: usize> Engine<T, S> {
     /// A new engine; it initializes the slave solution from the first master message.
     pub fn new(cfg: EngineConfig<T>) -> Result<Self, EngineError> {
@@ -550,6 +559,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             master_trend: VelocityTrend::new(),
             g_force_bs: None,
             frozen: false,
+            has_delay: layout_has_delay(&cfg),
             cfg,
         }
     }
@@ -596,6 +606,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         self.master_trend = VelocityTrend::new();
         self.g_force_bs = None;
         self.frozen = false;
+        self.has_delay = layout_has_delay(&cfg);
         self.cfg = cfg;
         Ok(())
     }
@@ -776,7 +787,6 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// The estimate of an augmented effect, if the layout carries it.
     pub fn effect_estimate(&self, effect: Effect) -> Option<EffectEstimate<T>> {
         let offset = self.cfg.augmentation.offset(effect)?;
-        let x = self.kf.state();
         let mut e = EffectEstimate {
             effect,
             value: [T::zero(); 9],
@@ -789,7 +799,9 @@ impl<T: Real, const S: usize> Engine<T, S> {
             .take(effect.states())
             .enumerate()
         {
-            *v = vget(&x, offset + k);
+            // The block's states alone (the whole state formed per effect cost the board
+            // ≈ 0.3k instructions a master update each).
+            *v = self.kf.state_at(offset + k);
             *s = self.kf.sigma(offset + k);
         }
         if effect.is_clock() {
@@ -888,10 +900,13 @@ impl<T: Real, const S: usize> Engine<T, S> {
     ) -> Result<(), EngineError> {
         let _phase = probe::enter(Phase::Engine);
         reports.clear();
+        // (Over the vectors' slices: nalgebra's iterators cost the board ≈ 100
+        // instructions a sample here.)
         if !(s.t.is_finite()
             && s.dtheta_b
+                .as_slice()
                 .iter()
-                .chain(s.dv_b.iter())
+                .chain(s.dv_b.as_slice())
                 .all(|v| v.is_finite()))
         {
             return Err(EngineError::NonFinite);
@@ -972,7 +987,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// Whether the layout carries the master delay (matching at t − τ̂, epoch-consistent):
     /// `time_delay` or `clock_drift`.
     fn has_delay(&self) -> bool {
-        self.cfg.augmentation.blocks().any(|b| b.effect.is_clock())
+        self.has_delay
     }
 
     /// Time of the master stamp `t` since the clock's reference t₀ (0 before the start).
@@ -992,7 +1007,10 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// the clamp returns unchanged: it is returned as it is (the clamp's two comparisons
     /// were 0.5k instructions an update).
     fn delay_at(&self, t: f64) -> f64 {
-        if self.delay_rate.to_bits() << 1 == 0 {
+        // The rate's bits as two words: as one (`bits << 1 == 0`) the compiler turned the
+        // test back into a software `f64` comparison with zero (≈ 30 instructions).
+        let bits = self.delay_rate.to_bits();
+        if (bits as u32) | ((bits >> 32) as u32 & 0x7FFF_FFFF) == 0 {
             return self.delay_s;
         }
         (self.delay_s + self.delay_rate * self.clock_dt(t)).clamp(-MAX_DELAY_S, MAX_DELAY_S)
@@ -1042,9 +1060,12 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 sd.reset_history();
             }
             let dtt = T::of(dt);
+            // (Element by element, as nalgebra's operations form them: a loop each on
+            // the board, at every IMU sample.)
+            let (bg, ba) = (&self.gyro_bias, &self.accel_bias);
             let inc = Increments {
-                dtheta_b: s.dtheta_b - self.gyro_bias * dtt,
-                dv_b: s.dv_b - self.accel_bias * dtt,
+                dtheta_b: vec3(|i| vget(&s.dtheta_b, i) - vget(bg, i) * dtt),
+                dv_b: vec3(|i| vget(&s.dv_b, i) - vget(ba, i) * dtt),
                 dt: dtt,
             };
             {
@@ -1061,8 +1082,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 dt,
             });
             if let Some(ep) = self.epoch.as_mut() {
-                ep.dtheta += inc.dtheta_b;
-                ep.dv += inc.dv_b;
+                ep.dtheta = vec3(|i| vget(&ep.dtheta, i) + vget(&inc.dtheta_b, i));
+                ep.dv = vec3(|i| vget(&ep.dv, i) + vget(&inc.dv_b, i));
                 ep.dt += dt;
             }
             self.maybe_predict(s.t);
@@ -1090,14 +1111,14 @@ impl<T: Real, const S: usize> Engine<T, S> {
             return;
         };
         let dtt = T::of(ep.dt);
-        let f_b = ep.dv / dtt;
+        let f_b = vec3(|i| vget(&ep.dv, i) / dtt);
         let means = IntervalMeans {
             f_b,
             // The slave's mean force holds the bending arm's `R θ̈` of the period, which
             // the flexure states have not yet predicted: the master's force where it
             // carries one (docs/diagnosis.md "Session 12").
             f_g_b: self.g_force_bs.unwrap_or(f_b),
-            w_ib_b: ep.dtheta / dtt,
+            w_ib_b: vec3(|i| vget(&ep.dtheta, i) / dtt),
             c_b_n: dcm(&nlerp(&ep.q_start, &nav.q_b_n, T::of(0.5))),
             v_n: nav.v_n,
             pos: nav.pos,
@@ -1488,7 +1509,9 @@ impl<T: Real, const S: usize> Engine<T, S> {
         out: &mut [ScalarUpdate<T>; 3],
     ) {
         let _phase = probe::enter(Phase::Update);
-        for (((row, slot), z), r) in rows.iter().zip(out.iter_mut()).zip(z.iter()).zip(r.iter()) {
+        // `z` and `r` as slices (nalgebra's iterators are loops of their own on the board).
+        let (z, r) = (z.as_slice(), r.as_slice());
+        for (((row, slot), z), r) in rows.iter().zip(out.iter_mut()).zip(z).zip(r) {
             *slot = self.kf.update_scalar_on(row, cols, *z, *r, gate);
         }
     }
@@ -1722,9 +1745,12 @@ fn measure<T: Real>(
     // uses its own IMU intervals and its own master sample (white noise).
     let angular_rate = match (m.angular_rate && !held, msg.w_ib_bm, rate) {
         (true, Some(w_m), Some(slave_rate)) => {
-            let w_m_bs = exp_so3(&e.misalignment).transpose() * w_m;
+            let w_m_bs = mul3v(&transpose3(&exp_so3(&e.misalignment)), &w_m);
             // `model::rate_residual` with Exp(μ̂)ᵀ ω_m computed once.
-            let z = (slave_rate.raw_b - e.gyro_bias) - w_m_bs;
+            // (Element by element, as nalgebra's operations form them: a loop each on the
+            // board.)
+            let z =
+                vec3(|i| (vget(&slave_rate.raw_b, i) - vget(&e.gyro_bias, i)) - vget(&w_m_bs, i));
             let arw = e.cfg.process_noise.gyro_arw;
             let gyro = arw * arw * T::of(slave_rate.noise_gain);
             // The slave's rate is a mean over IMU intervals, the flexure state read at
@@ -1735,8 +1761,11 @@ fn measure<T: Real>(
             // here it left structure on the rate (docs/diagnosis.md "Session 13").
             let q = Vector3::from(e.cfg.flexure.axes.map(|a| a.rate_diffusion()));
             let departure = slave_rate.departure_gain;
-            let flex = jr.component_mul(&jr) * q * departure;
-            let r = noise.rate_radps.zip_map(&flex, |s, f| s * s + gyro + f);
+            let carried = mul3v(&zip3(&jr, &jr, |_, _, a, b| a * b), &q);
+            let r = vec3(|i| {
+                let s = vget(&noise.rate_radps, i);
+                (s * s + gyro) + vget(&carried, i) * departure
+            });
             Some(Measured {
                 z,
                 blocks: model::rate_blocks(&w_m_bs, &jr),
@@ -1764,7 +1793,7 @@ fn attitude_blocks<T: Real>(
     theta: &Vector3<T>,
 ) -> model::Blocks<T> {
     model::attitude_blocks(
-        &inverse_right_jacobian_small(&(jr * theta)),
+        &inverse_right_jacobian_small(&mul3v(jr, theta)),
         &right_jacobian(&(misalignment + theta)),
     )
 }
@@ -1783,7 +1812,7 @@ fn master_rate_wrt_earth<T: Real>(
     c_bm_n: &Matrix3<T>,
 ) -> (Vector3<T>, T) {
     let noise = &cfg.measurement_noise;
-    let w_ie_b = c_bm_n.transpose() * here.earth_rate_n();
+    let w_ie_b = mul3v(&transpose3(c_bm_n), &here.earth_rate_n());
     if let Some(w) = msg.w_ib_bm {
         let sigma = noise.lever_arm_rate_radps;
         return (w - w_ie_b, sigma * sigma);
@@ -1794,7 +1823,10 @@ fn master_rate_wrt_earth<T: Real>(
             let w_nb = quat_log(&(p.q_bm_n.inverse() * msg.q_bm_n)) / dt;
             let w_en = here.transport_rate_n(&msg.v_n);
             let sigma = axes_rms(&noise.attitude_rad) / dt;
-            (w_nb + c_bm_n.transpose() * w_en, T::of(2.0) * sigma * sigma)
+            (
+                w_nb + mul3v(&transpose3(c_bm_n), &w_en),
+                T::of(2.0) * sigma * sigma,
+            )
         }
         _ => (Vector3::zeros(), T::zero()),
     }
@@ -1999,20 +2031,20 @@ fn signature<T: Real>(
     // a line through its past velocities weighted over `MASTER_ACCEL_WINDOW_S` (the
     // master's smooth error's increments, which a short window's slope carries, biased
     // it the other way: docs/diagnosis.md "Session 11").
-    let m_bs = exp_so3(&e.misalignment).transpose();
+    let m_bs = transpose3(&exp_so3(&e.misalignment));
     let g_sensitivity = e
         .cfg
         .augmentation
         .offset(Effect::GyroGSensitivity)
         .is_some();
-    let w_nb_bm = w_eb_bm - c_bm_n.transpose() * w_en;
+    let w_nb_bm = w_eb_bm - mul3v(&transpose3(c_bm_n), &w_en);
     let (w_nb_bs, w_dot_bs) = match (slope, msg.w_ib_bm) {
-        (Some(w_dot), _) => (m_bs * w_nb_bm, m_bs * w_dot),
+        (Some(w_dot), _) => (mul3v(&m_bs, &w_nb_bm), mul3v(&m_bs, &w_dot)),
         // The rate and velocity channels are held ([`measure`]): the attitude's column
         // is still the master's rate.
-        (None, Some(_)) => (m_bs * w_nb_bm, Vector3::zeros()),
+        (None, Some(_)) => (mul3v(&m_bs, &w_nb_bm), Vector3::zeros()),
         (None, None) => (
-            w_ib_bs - c_bs_n.transpose() * (w_ie + w_en),
+            w_ib_bs - mul3v(&transpose3(&c_bs_n), &(w_ie + w_en)),
             Vector3::zeros(),
         ),
     };
@@ -2063,11 +2095,12 @@ fn signature<T: Real>(
                     &e.cfg.lever_arm_m,
                 ),
             };
+            let two = T::of(2.0);
             augment::carried_specific_force(
                 &a_c,
                 &here.gravity_n(),
-                &(w_ie * T::of(2.0) + w_en).cross(&slave.v_n),
-                &(m_bs * c_bm_n.transpose()),
+                &vec3(|i| vget(&w_ie, i) * two + vget(&w_en, i)).cross(&slave.v_n),
+                &mul3(&m_bs, &transpose3(c_bm_n)),
             )
         }
         _ => f_bs,
@@ -2075,7 +2108,7 @@ fn signature<T: Real>(
     Signature {
         c_bm_n: *c_bm_n,
         w_eb_bm: *w_eb_bm,
-        lever_v_n: c_bm_n * w_eb_bm.cross(&e.cfg.lever_arm_m),
+        lever_v_n: mul3v(c_bm_n, &w_eb_bm.cross(&e.cfg.lever_arm_m)),
         v_dot_n,
         w_nb_bs,
         w_dot_bs,

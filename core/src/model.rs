@@ -23,7 +23,7 @@ use crate::augment::{self, Augmentation};
 use crate::earth::{self, Position};
 use crate::flexure::FlexureModel;
 use crate::kalman::{Noise, Transition};
-use crate::mat;
+use crate::mat::{self, mul3, mul3v, neg3, transpose3, vec3, vget, zip3};
 use crate::real::Real;
 use crate::rotation::skew;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
@@ -86,30 +86,14 @@ pub struct ProcessNoise<T> {
     pub misalignment_rw: T,
 }
 
-/// `a b`, each element `(a_i0 b_0j + a_i1 b_1j) + a_i2 b_2j` as nalgebra's product forms
-/// it (a column of `b` at a time: `1 · a_:0 · b_0j`, then `1 · a_:k · b_kj + 1 · c` for
-/// k = 1, 2; the ones are exact), written out: nalgebra's generic loops cost the board
-/// several times the 27 multiply-adds.
-fn mul3<T: Real>(a: &Matrix3<T>, b: &Matrix3<T>) -> Matrix3<T> {
-    let (a, b) = (&a.data.0, &b.data.0);
-    let [a0, a1, a2] = a;
-    let col = |[b0, b1, b2]: &[T; 3]| -> [T; 3] {
-        core::array::from_fn(|i| {
-            let at = |c: &[T; 3]| c.get(i).copied().unwrap_or_else(T::zero);
-            at(a0) * *b0 + at(a1) * *b1 + at(a2) * *b2
-        })
-    };
-    let [b0, b1, b2] = b;
-    Matrix3::from_data(nalgebra::ArrayStorage([col(b0), col(b1), col(b2)]))
-}
-
 /// Writes the 3 × 3 block `b` at row `r`, column `c` of `f`, `DYN` rows stored
-/// column-major.
+/// column-major (`b`'s columns as arrays: nalgebra's column iterator is a loop of its
+/// own on the board).
 fn put<T: Real>(f: &mut [T], r: usize, c: usize, b: &Matrix3<T>) {
-    for (k, col) in b.column_iter().enumerate() {
+    for (k, col) in b.data.0.iter().enumerate() {
         let at = (c + k) * DYN + r;
-        if let Some(dst) = f.get_mut(at..at + 3) {
-            dst.copy_from_slice(col.as_slice());
+        if let Some([d0, d1, d2]) = f.get_mut(at..at + 3) {
+            [*d0, *d1, *d2] = *col;
         }
     }
 }
@@ -127,13 +111,19 @@ fn nav_dynamics_rows<T: Real>(m: &IntervalMeans<T>, f: &mut [T]) {
     let w_en = here.transport_rate_n(&m.v_n);
     let d_wen_dv = here.transport_rate_jacobian();
     // δv̇ = (−[(2ω_ie+ω_en)×] + [v×] ∂ω_en/∂v) δv − C[f×] ψ + C ∇
-    let fvv = -skew(&(w_ie * T::of(2.0) + w_en)) + mul3(&skew(&m.v_n), &d_wen_dv);
+    // (The negations, the sum and the transpose element by element: nalgebra's are a
+    // loop each on the board.)
+    let fvv = zip3(
+        &skew(&(w_ie * T::of(2.0) + w_en)),
+        &mul3(&skew(&m.v_n), &d_wen_dv),
+        |_, _, a, b| -a + b,
+    );
     put(f, V, V, &fvv);
-    put(f, V, PSI, &(-mul3(&m.c_b_n, &skew(&m.f_b))));
+    put(f, V, PSI, &neg3(&mul3(&m.c_b_n, &skew(&m.f_b))));
     put(f, V, BA, &m.c_b_n);
     // ψ̇ = −Cᵀ ∂ω_en/∂v δv − [ω_ib×] ψ + ε
-    put(f, PSI, V, &(-mul3(&m.c_b_n.transpose(), &d_wen_dv)));
-    put(f, PSI, PSI, &(-skew(&m.w_ib_b)));
+    put(f, PSI, V, &neg3(&mul3(&transpose3(&m.c_b_n), &d_wen_dv)));
+    put(f, PSI, PSI, &neg3(&skew(&m.w_ib_b)));
     put(f, PSI, BG, &Matrix3::identity());
 }
 
@@ -358,14 +348,16 @@ pub fn rows_from_blocks<T: Real, const S: usize>(blocks: &Blocks<T>) -> Rows<T, 
 
 /// Writes `blocks` into `rows` (the other elements left as they are): the engine's rows
 /// built in place (returned by [`rows_from_blocks`], they were copied once more on the
-/// board, 0.7k instructions per master update).
+/// board, 0.7k instructions per master update). Each block's row `axis` read from its
+/// column arrays and written as three elements (element by element through nalgebra's
+/// checked access it cost the board ≈ 0.7k instructions a master update as well).
 pub fn put_blocks<T: Real, const S: usize>(rows: &mut Rows<T, S>, blocks: &Blocks<T>) {
     for (axis, row) in rows.iter_mut().enumerate() {
         for (offset, b) in blocks {
-            for k in 0..3 {
-                if let Some(e) = row.get_mut(offset + k) {
-                    *e = mat::get(b, axis, k);
-                }
+            let [c0, c1, c2] = &b.data.0;
+            let at = |c: &[T; 3]| c.get(axis).copied().unwrap_or_else(T::zero);
+            if let Some([e0, e1, e2]) = row.as_mut_slice().get_mut(*offset..offset + 3) {
+                [*e0, *e1, *e2] = [at(c0), at(c1), at(c2)];
             }
         }
     }
@@ -393,8 +385,8 @@ pub fn velocity_blocks<T: Real>(
     match r_flex {
         Some(r) => blocks(&[
             (V, Matrix3::identity()),
-            (TH, c_bm_n * skew(w_eb_bm) * r),
-            (THD, c_bm_n * r),
+            (TH, mul3(&mul3(c_bm_n, &skew(w_eb_bm)), r)),
+            (THD, mul3(c_bm_n, r)),
         ]),
         None => blocks(&[(V, Matrix3::identity())]),
     }
@@ -424,7 +416,7 @@ pub fn attitude_rows<T: Real, const S: usize>(
 
 /// [`attitude_rows`]' blocks.
 pub fn attitude_blocks<T: Real>(jr_inv_a: &Matrix3<T>, jr_mu_theta: &Matrix3<T>) -> Blocks<T> {
-    let j = jr_inv_a * jr_mu_theta;
+    let j = mul3(jr_inv_a, jr_mu_theta);
     blocks(&[(PSI, *jr_inv_a), (MU, j), (TH, j)])
 }
 
@@ -438,7 +430,7 @@ pub fn rate_rows<T: Real, const S: usize>(w_m_bs: &Vector3<T>, jr_mu: &Matrix3<T
 
 /// [`rate_rows`]' blocks.
 pub fn rate_blocks<T: Real>(w_m_bs: &Vector3<T>, jr_mu: &Matrix3<T>) -> Blocks<T> {
-    let wj = skew(w_m_bs) * jr_mu;
+    let wj = mul3(&skew(w_m_bs), jr_mu);
     blocks(&[(MU, wj), (BG, Matrix3::identity()), (TH, wj), (THD, *jr_mu)])
 }
 
@@ -459,9 +451,13 @@ impl LeverBending {
         match self {
             Self::Paper => {
                 let z = T::zero();
-                Matrix3::new(z, r0.z, z, z, z, r0.x, r0.y, z, z) * h
+                let m = Matrix3::new(z, r0.z, z, z, z, r0.x, r0.y, z, z);
+                zip3(&m, &m, |_, _, x, _| x * h)
             }
-            Self::UniformArc => -skew(r0) * h,
+            Self::UniformArc => {
+                let m = skew(r0);
+                zip3(&m, &m, |_, _, x, _| -x * h)
+            }
         }
     }
 }
@@ -476,7 +472,8 @@ pub fn velocity_residual<T: Real>(
     w_eb_bm: &Vector3<T>,
     r0_bm: &Vector3<T>,
 ) -> Vector3<T> {
-    v_slave_n - v_master_n - c_bm_n * w_eb_bm.cross(r0_bm)
+    let lever = mul3v(c_bm_n, &w_eb_bm.cross(r0_bm));
+    vec3(|i| (vget(v_slave_n, i) - vget(v_master_n, i)) - vget(&lever, i))
 }
 
 /// Nonlinear attitude-matching residual (rad, slave body): `Log(Exp(−μ̂) C_bm^nᵀ Ĉ_bs^n)`.
@@ -485,9 +482,10 @@ pub fn attitude_residual<T: Real>(
     c_bm_n: &Matrix3<T>,
     c_bs_n_hat: &Matrix3<T>,
 ) -> Vector3<T> {
-    crate::rotation::log_so3(
-        &(crate::rotation::exp_so3(&(-mu_hat)) * c_bm_n.transpose() * c_bs_n_hat),
-    )
+    crate::rotation::log_so3(&mul3(
+        &mul3(&crate::rotation::exp_so3(&(-mu_hat)), &transpose3(c_bm_n)),
+        c_bs_n_hat,
+    ))
 }
 
 /// Nonlinear angular-rate-matching residual (rad/s, slave body): the slave's
@@ -497,5 +495,5 @@ pub fn rate_residual<T: Real>(
     mu_hat: &Vector3<T>,
     w_master_bm: &Vector3<T>,
 ) -> Vector3<T> {
-    w_slave_corrected_bs - crate::rotation::exp_so3(mu_hat).transpose() * w_master_bm
+    w_slave_corrected_bs - mul3v(&transpose3(&crate::rotation::exp_so3(mu_hat)), w_master_bm)
 }

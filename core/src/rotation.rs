@@ -5,6 +5,7 @@
 //! part `w` first in `Quaternion::new(w, i, j, k)`, and `q * v` computes `q ⊗ v ⊗ q*`:
 //! exactly the recording format's `q_b^n` convention.
 
+use crate::mat::{mul3, vec4, vget, zip3};
 use crate::real::Real;
 use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 
@@ -95,7 +96,22 @@ pub fn right_jacobian<T: Real>(phi: &Vector3<T>) -> Matrix3<T> {
         let (s, c) = a.sin_cos_fast();
         ((T::one() - c) / a2, (a - s) / (a2 * a))
     };
-    Matrix3::identity() - k * c1 + k * k * c2
+    // `Matrix3::identity() - k * c1 + k * k * c2`, each element's arithmetic as
+    // nalgebra's operations form it, written out (its five loops cost the board ≈ 500
+    // instructions a call).
+    zip3(&k, &mul3(&k, &k), |i, j, kij, kkij| {
+        (identity::<T>(i, j) - kij * c1) + kkij * c2
+    })
+}
+
+/// Element `(i, j)` of the identity.
+#[inline(always)]
+fn identity<T: Real>(i: usize, j: usize) -> T {
+    if i == j {
+        T::one()
+    } else {
+        T::zero()
+    }
 }
 
 /// Inverse right Jacobian of SO(3) for a small rotation vector `a` (rad):
@@ -106,7 +122,12 @@ pub fn right_jacobian<T: Real>(phi: &Vector3<T>) -> Matrix3<T> {
 #[inline]
 pub fn inverse_right_jacobian_small<T: Real>(a: &Vector3<T>) -> Matrix3<T> {
     let k = skew(a);
-    Matrix3::identity() + k * T::of(0.5) + k * k * T::of(1.0 / 12.0)
+    // `Matrix3::identity() + k * ½ + k * k * (1/12)`, written out as in
+    // [`right_jacobian`].
+    let (half, twelfth) = (T::of(0.5), T::of(1.0 / 12.0));
+    zip3(&k, &mul3(&k, &k), |i, j, kij, kkij| {
+        (identity::<T>(i, j) + kij * half) + kkij * twelfth
+    })
 }
 
 /// `((1 − cos a)/a², (a − sin a)/a³)` of an angle `a` (rad) by their Taylor series to
@@ -128,11 +149,15 @@ pub fn right_jacobian_series<T: Real>(a: T) -> (T, T) {
 /// second order in the angle between them, which is what a few-millisecond gap needs.
 pub fn nlerp<T: Real>(q0: &UnitQuaternion<T>, q1: &UnitQuaternion<T>, s: T) -> UnitQuaternion<T> {
     let b = if q0.coords.dot(&q1.coords) < T::zero() {
-        -q1.coords
+        vec4(|i| -vget(&q1.coords, i))
     } else {
         q1.coords
     };
-    normalize(&Quaternion::from(q0.coords * (T::one() - s) + b * s))
+    // `q0 (1 − s) + b s`, element by element as nalgebra's operations form it.
+    let w0 = T::one() - s;
+    normalize(&Quaternion::from(vec4(|i| {
+        vget(&q0.coords, i) * w0 + vget(&b, i) * s
+    })))
 }
 
 /// The unit quaternion of `q`'s direction: nalgebra's `UnitQuaternion::new_normalize`
@@ -140,9 +165,8 @@ pub fn nlerp<T: Real>(q0: &UnitQuaternion<T>, q1: &UnitQuaternion<T>, s: T) -> U
 /// (the FPU's square root on the board, not `libm`'s software one).
 #[inline]
 pub fn normalize<T: Real>(q: &Quaternion<T>) -> UnitQuaternion<T> {
-    UnitQuaternion::new_unchecked(Quaternion::from(
-        q.coords / q.coords.norm_squared().sqrt_fast(),
-    ))
+    let n = q.coords.norm_squared().sqrt_fast();
+    UnitQuaternion::new_unchecked(Quaternion::from(vec4(|i| vget(&q.coords, i) / n)))
 }
 
 /// Direction cosine matrix of a unit quaternion (`C_b^n` from `q_b^n`).

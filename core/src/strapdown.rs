@@ -41,6 +41,7 @@
 //! plain update's, no panic path.
 
 use crate::earth::{self, Position};
+use crate::mat::{rotate3, vec3, vec4, vget};
 use crate::real::Real;
 use crate::rotation::quat_exp;
 use nalgebra::{Quaternion, SVector, UnitQuaternion, Vector3};
@@ -162,14 +163,17 @@ fn two_sum<T: Real>(a: T, b: T) -> (T, T) {
 }
 
 /// Adds `d` to the unevaluated sums `hi + lo`, element by element, and renormalizes
-/// them: `hi` the nearest value, `lo` what is left (|lo| ≤ ½ ULP of `hi`).
+/// them: `hi` the nearest value, `lo` what is left (|lo| ≤ ½ ULP of `hi`). Over the
+/// vectors' slices: nalgebra's iterators cost the board ≈ 1.2k instructions a master
+/// update here.
 #[inline]
 fn add_compensated<T: Real, const D: usize>(
     hi: &mut SVector<T, D>,
     lo: &mut SVector<T, D>,
     d: &SVector<T, D>,
 ) {
-    for ((h, l), x) in hi.iter_mut().zip(lo.iter_mut()).zip(d.iter()) {
+    let (hi, lo, d) = (hi.as_mut_slice(), lo.as_mut_slice(), d.as_slice());
+    for ((h, l), x) in hi.iter_mut().zip(lo.iter_mut()).zip(d) {
         let (s, e) = two_sum(*h, *x);
         (*h, *l) = two_sum(s, e + *l);
     }
@@ -198,12 +202,14 @@ impl<T: Real> Strapdown<T> {
     }
 
     /// The low-order parts, dropping any whose rounded value was changed from outside.
+    /// (The vectors compared as arrays, element by element as nalgebra's `!=`: its
+    /// iterators cost the board ≈ 0.7k instructions a master update here.)
     fn residuals(&self) -> Residuals<T> {
         let mut lo = self.lo;
-        if self.nav.q_b_n.coords != self.hi.q_b_n.coords {
+        if self.nav.q_b_n.coords.data.0 != self.hi.q_b_n.coords.data.0 {
             lo.q = Quaternion::new(T::zero(), T::zero(), T::zero(), T::zero());
         }
-        if self.nav.v_n != self.hi.v_n {
+        if self.nav.v_n.data.0 != self.hi.v_n.data.0 {
             lo.v = Vector3::zeros();
         }
         let (p, h) = (&self.nav.pos, &self.hi.pos);
@@ -230,11 +236,14 @@ impl<T: Real> Strapdown<T> {
         let (el, er) = (exp_minus_one(left), exp_minus_one(right));
         // Exp(l) q Exp(r) − q = e_l q + q e_r + e_l q e_r: every term small, none rounded
         // against the size of q.
+        // (The sums and scalings element by element, as in `step_timed`.)
         let qr = q * er;
-        let d = el * q + qr + el * qr;
+        let (elq, elqr) = (el * q, el * qr);
+        let d = vec4(|i| (vget(&elq.coords, i) + vget(&qr.coords, i)) + vget(&elqr.coords, i));
         let mut hi = q.coords;
-        add_compensated(&mut hi, &mut lo.coords, &d.coords);
-        let small = right_small * T::of(0.5);
+        add_compensated(&mut hi, &mut lo.coords, &d);
+        let h = T::of(0.5);
+        let small = vec3(|i| vget(right_small, i) * h);
         let dc = q * Quaternion::new(T::zero(), small.x, small.y, small.z);
         add_compensated(&mut hi, &mut lo.coords, &dc.coords);
         // Norm: |q|² − 1 of the exact sum (w² − 1 as (w − 1)(w + 1) keeps it accurate
@@ -243,7 +252,8 @@ impl<T: Real> Strapdown<T> {
         let (w, v) = (h.w, h.imag());
         let n2m1 =
             (w - T::one()) * (w + T::one()) + v.norm_squared() + T::of(2.0) * hi.dot(&lo.coords);
-        let rescale = hi * (-n2m1 * T::of(0.5));
+        let f = -n2m1 * T::of(0.5);
+        let rescale = vec4(|i| vget(&hi, i) * f);
         add_compensated(&mut hi, &mut lo.coords, &rescale);
         self.nav.q_b_n = UnitQuaternion::new_unchecked(Quaternion::from(hi));
     }
@@ -286,27 +296,35 @@ impl<T: Real> Strapdown<T> {
         // ones have cancelled: a few-ULP term added to a number on the f32 grid is
         // rounded the same way every step, however much that number varies.
         // Coning: rotation vector of the body over the interval is `dth + coning`.
-        let coning = dth_p.cross(&dth) * twelfth;
+        // (The vector arithmetic here element by element, `mat::vec3`, each element's as
+        // nalgebra's operations form it: a loop each through memory on the board.)
+        let coning_raw = dth_p.cross(&dth);
+        let coning = vec3(|i| vget(&coning_raw, i) * twelfth);
         // Rotation and sculling: the velocity increment resolved in the body frame at the
         // start of the interval is `dv + dv_small`.
-        let dv_small = dth.cross(&dv) * half + (dth_p.cross(&dv) + dv_p.cross(&dth)) * twelfth;
+        let (rot, scul0, scul1) = (dth.cross(&dv), dth_p.cross(&dv), dv_p.cross(&dth));
+        let dv_small =
+            vec3(|i| vget(&rot, i) * half + (vget(&scul0, i) + vget(&scul1, i)) * twelfth);
 
         let mut lo = self.residuals();
         let nav = self.nav;
         let here = earth::Local::at(&nav.pos);
         let w_ie = here.earth_rate_n();
         let w_en = here.transport_rate_n(&nav.v_n);
-        let w_in = w_ie + w_en;
-        let zeta = w_in * inc.dt;
+        let zeta = vec3(|i| (vget(&w_ie, i) + vget(&w_en, i)) * inc.dt);
         // Specific force increment in n, with the n-frame rotation over the interval.
-        let c_big = nav.q_b_n * dv;
-        let c_small = nav.q_b_n * dv_small;
-        let c_rot = zeta.cross(&(c_big + c_small)) * half;
+        let c_big = rotate3(&nav.q_b_n, &dv);
+        let c_small = rotate3(&nav.q_b_n, &dv_small);
+        let c_rot_raw = zeta.cross(&vec3(|i| vget(&c_big, i) + vget(&c_small, i)));
+        let c_rot = vec3(|i| vget(&c_rot_raw, i) * half);
         // `nav.q_b_n` is the rounded part of the unit quaternion: |q|² = 1 + ε with
         // ε ≈ −2 q·q_lo (up to 6e-8 in f32), and `q * v` then gives Rv + ε (Rv − v).
         let eps = -T::of(2.0) * nav.q_b_n.coords.dot(&lo.q.coords);
-        let norm_fix = ((c_big - dv) + (c_small - dv_small)) * eps;
-        let coriolis = (w_ie * T::of(2.0) + w_en).cross(&nav.v_n);
+        let norm_fix = vec3(|i| {
+            ((vget(&c_big, i) - vget(&dv, i)) + (vget(&c_small, i) - vget(&dv_small, i))) * eps
+        });
+        let two = T::of(2.0);
+        let coriolis = vec3(|i| vget(&w_ie, i) * two + vget(&w_en, i)).cross(&nav.v_n);
         // Gravity increment g·dt, split into its rounded value and the rest (see
         // `GravityRef`): the rest goes straight into the compensation.
         let lat = nav.pos.lat_rad.to_f64() + lo.pos.x.to_f64();
@@ -320,12 +338,17 @@ impl<T: Real> Strapdown<T> {
         // The net velocity change: specific force and gravity first (they cancel at rest,
         // exactly when within a factor of two), then the small terms, then one
         // compensated addition.
-        let big = c_big - Vector3::new(T::zero(), T::zero(), gdt_hi);
-        let dv_n = big + (c_small - c_rot - coriolis * inc.dt - norm_fix);
+        let g = Vector3::new(T::zero(), T::zero(), gdt_hi);
+        let dv_n = vec3(|i| {
+            let small = ((vget(&c_small, i) - vget(&c_rot, i)) - vget(&coriolis, i) * inc.dt)
+                - vget(&norm_fix, i);
+            (vget(&c_big, i) - vget(&g, i)) + small
+        });
         add_compensated(&mut self.nav.v_n, &mut lo.v, &dv_n);
         // Position with the mean velocity over the interval.
-        let v_mid = nav.v_n + dv_n * half;
-        let dpos = here.position_rate(&v_mid) * inc.dt;
+        let v_mid = vec3(|i| vget(&nav.v_n, i) + vget(&dv_n, i) * half);
+        let rate = here.position_rate(&v_mid);
+        let dpos = vec3(|i| vget(&rate, i) * inc.dt);
         let mut p = Vector3::new(nav.pos.lat_rad, nav.pos.lon_rad, nav.pos.height_m);
         add_compensated(&mut p, &mut lo.pos, &dpos);
         self.nav.pos = Position {
@@ -334,7 +357,7 @@ impl<T: Real> Strapdown<T> {
             height_m: p.z,
         };
         // Attitude: body rotation on the right, n-frame rotation on the left.
-        self.rotate(&mut lo.q, &(-zeta), &dth, &coning);
+        self.rotate(&mut lo.q, &vec3(|i| -vget(&zeta, i)), &dth, &coning);
         self.lo = lo;
         self.hi = self.nav;
         self.prev = Some(*inc);

@@ -21,6 +21,7 @@
 //! least eigenvector: where the floor can bind it is the specific force's, and it is
 //! found without the attitude (an accelerating or rolling body moves `u` off it).
 
+use crate::mat::mul3v;
 use crate::real::Real;
 use nalgebra::{Matrix3, Vector3};
 
@@ -42,7 +43,7 @@ pub fn floor<T: Real>(p_ba: &Matrix3<T>, f_norm: T) -> Option<BiasFloor<T>> {
         return None;
     }
     let u = least_direction(p_ba)?;
-    let pu = p_ba * u;
+    let pu = mul3v(p_ba, &u);
     let along = u.dot(&pu);
     // Σ⊥ = Π P Π, Π = I − u uᵀ: tr Σ⊥ = tr P − uᵀPu, tr Σ⊥² = tr P² − 2|Pu|² + (uᵀPu)².
     let tr_perp = p_ba.trace() - along;

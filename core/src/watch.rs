@@ -73,6 +73,7 @@ use crate::augment::{self, Effect};
 use crate::earth;
 use crate::engine::{EngineConfig, MasterNav, MatchReport};
 use crate::kalman::ScalarUpdate;
+use crate::mat::{mul3v, transpose3};
 use crate::real::Real;
 use crate::rotation::{dcm, quat_exp};
 use nalgebra::{Matrix3, Vector3};
@@ -276,7 +277,7 @@ impl<T: Real> Watch<T> {
         let omega = T::of(earth::OMEGA_IE);
         let w_ie_n = Vector3::new(T::zero(), omega * cos_lat, omega * sin_lat);
         let c_bm_n = dcm(&m.q_bm_n);
-        let w_eb_bm = w_ib_bm - c_bm_n.transpose() * w_ie_n;
+        let w_eb_bm = w_ib_bm - mul3v(&transpose3(&c_bm_n), &w_ie_n);
         let w_dot_bm = match self.rates {
             [Some((t1, w1)), _, Some((t3, w3))] if t1 > t3 && t1 - t3 < 1.0 => {
                 (w1 - w3) / T::of(t1 - t3)
@@ -294,8 +295,8 @@ impl<T: Real> Watch<T> {
                     &w_dot_bm,
                     &self.lever_arm_m,
                 ),
-                attitude: self.bm_to_bs * w_eb_bm,
-                rate: self.bm_to_bs * w_dot_bm,
+                attitude: mul3v(&self.bm_to_bs, &w_eb_bm),
+                rate: mul3v(&self.bm_to_bs, &w_dot_bm),
             };
         }
         self.next = (self.next + 1) % RING;
@@ -323,7 +324,8 @@ impl<T: Real> Watch<T> {
         let (mut score, mut info) = (T::zero(), T::zero());
         for ((updates, col), sums) in channels.iter().zip(self.axes.chunks_exact_mut(3)) {
             let Some(updates) = updates else { continue };
-            for ((u, c), a) in updates.iter().zip(col.iter()).zip(sums.iter_mut()) {
+            // (`col` as a slice: nalgebra's iterator is a loop of its own on the board.)
+            for ((u, c), a) in updates.iter().zip(col.as_slice()).zip(sums.iter_mut()) {
                 let (s, i) = a.push(u, *c, decay);
                 score += s;
                 info += i;

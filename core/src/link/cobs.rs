@@ -71,7 +71,9 @@ pub fn encode(src: &[u8], dst: &mut [u8]) -> Option<usize> {
 }
 
 /// Decodes one frame (the bytes between two delimiters) in place; returns the decoded
-/// length, the decoded bytes being `buf[..len]`. `O(buf.len())`.
+/// length, the decoded bytes being `buf[..len]`. `O(buf.len())`. The link's streaming
+/// decoder (`codec::Decoder`) unstuffs as the bytes arrive instead; its tests check it
+/// against this whole-frame form.
 pub fn decode_in_place(buf: &mut [u8]) -> Result<usize, CobsError> {
     let n = buf.len();
     let mut read = 0usize;
