@@ -657,16 +657,17 @@ pub fn diagnose(
                 .final_effects()
                 .into_iter()
                 .find(|r| Some(r.effect) == effect);
-            let (wald, estimate, sigma) = block
-                .map(|r| (r.wald, r.value, r.sigma))
-                .unwrap_or((f64::NAN, Vec::new(), Vec::new()));
+            let (wald, estimate, sigma) = block.map(|r| (r.wald, r.value, r.sigma)).unwrap_or((
+                f64::NAN,
+                Vec::new(),
+                Vec::new(),
+            ));
             let lr = current.neg2ll - again.neg2ll;
             let significant = wald > test.threshold
                 && lr > test.threshold
                 && effect
                     .is_some_and(|e| above_floor(e, &estimate, span_s) && plausible(e, &estimate));
-            let size_after =
-                size::total_excess(&size::axis_sizes(&again.result.innovations, rate));
+            let size_after = size::total_excess(&size::axis_sizes(&again.result.innovations, rate));
             let gain_again = base_holdout.map_or(f64::NAN, |b| b - h_again.neg2ll);
             test.refit = Some(RefitTest {
                 learned: refit,
