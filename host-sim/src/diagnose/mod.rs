@@ -200,6 +200,10 @@ pub struct CandidateTest {
     /// with it learned again (`Options::learned`); it is judged on these figures.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub refit: Option<RefitTest>,
+    /// Why the competing learned quantities could not be learned again with it (it is
+    /// then judged on the model as learned).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refit_error: Option<String>,
 }
 
 /// A candidate tested again after the learned quantities that compete with it were
@@ -308,8 +312,9 @@ fn backward(
             }
             // The learned quantities that compete with it found again without it, as
             // they were learned again with it when it was adopted.
+            // (Where they cannot be, the set without it is judged as it is.)
             if let Some(learned) = opts.learned.as_ref() {
-                if let Some(r) = crate::learn::refit_competing(rec, &cfg, learned)? {
+                if let Ok(Some(r)) = crate::learn::refit_competing(rec, &cfg, learned) {
                     cfg = r.cfg;
                 }
             }
@@ -560,6 +565,7 @@ pub fn diagnose(
                         rate_test,
                         gain_over_delay: None,
                         refit: None,
+                        refit_error: None,
                     }
                 }
                 Err(e) => CandidateTest {
@@ -581,6 +587,7 @@ pub fn diagnose(
                     rate_test: None,
                     gain_over_delay: None,
                     refit: None,
+                    refit_error: None,
                 },
             };
             tests.push(test);
@@ -639,7 +646,11 @@ pub fn diagnose(
             // the estimate is the joint one (blind lever arm 102, 106: rejected by the
             // structure's size without it; 101: adopted without it 0.50 m off).
             let refit = match (opts.learned.as_ref(), refits < MAX_REFITS) {
-                (Some(learned), true) => crate::learn::refit_competing(rec, &run.cfg, learned)?,
+                (Some(learned), true) => crate::learn::refit_competing(rec, &run.cfg, learned)
+                    .unwrap_or_else(|e| {
+                        test.refit_error = Some(e);
+                        None
+                    }),
                 _ => None,
             };
             let Some(refit) = refit else {

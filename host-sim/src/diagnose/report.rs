@@ -309,14 +309,20 @@ pub fn decision(t: &CandidateTest, round: &Round) -> String {
             rejection(r.holdout_likelihood_ratio, r.size_after, round)
         );
     }
+    let unrefit = t
+        .refit_error
+        .as_ref()
+        .map(|e| format!(" (the learned quantities that compete with it could not be learned again with it: {e})"))
+        .unwrap_or_default();
     if round.added == Some(t.effect) {
-        return "adopted: significant, predicts the held-out part better and does not grow the structure's size".into();
+        return format!("adopted: significant, predicts the held-out part better and does not grow the structure's size{unrefit}");
     }
-    rejection(
+    let why = rejection(
         t.holdout_likelihood_ratio.unwrap_or(f64::NAN),
         t.size_after,
         round,
-    )
+    );
+    format!("{why}{unrefit}")
 }
 
 /// What learning the competing quantities again with the candidate changed, in a clause:

@@ -336,13 +336,23 @@ pub fn refit_competing(
     }
     let clock = std::time::Instant::now();
     let mut model = ModelParams::from_config(cfg);
-    for p in [
-        Param::MasterAttitudeError,
-        Param::MasterVelocityError,
-        Param::MasterErrorCorrelation,
-    ] {
+    // A smooth error the layout no longer carries comes back only where the layout has
+    // room for its block (`MAX_EFFECTS`): PSINS, round 3, the delay and the lever arm
+    // in, the attitude error dropped by round 2's refit.
+    let mut blocks = cfg.effects.len();
+    for &p in &competing {
+        if model.get(p) == 0.0 {
+            if blocks >= flexcal_core::augment::MAX_EFFECTS {
+                continue;
+            }
+            blocks += 1;
+        }
         model.set(p, from.get(p));
     }
+    model.set(
+        Param::MasterErrorCorrelation,
+        from.get(Param::MasterErrorCorrelation),
+    );
     model.velocity_floor_mps = params::velocity_noise_floor(rec.master.iter().map(|m| m.v_n_mps));
     let mut s = Search::new(rec, model)?;
     let h = std::f64::consts::LN_2 / 2.0;
