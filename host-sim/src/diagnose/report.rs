@@ -298,8 +298,13 @@ pub fn decision(t: &CandidateTest, round: &Round) -> String {
     }
     if let Some(r) = &t.refit {
         let note = refit_note(r);
+        let stands = r.significant && r.holdout_likelihood_ratio > 0.0;
         if round.added == Some(t.effect) {
-            return format!("adopted once {note}");
+            return if stands {
+                format!("adopted once {note}")
+            } else {
+                format!("adopted: significant, predicts the held-out part better and does not grow the structure's size; {note}: not kept")
+            };
         }
         if !r.significant {
             return format!("{note}: no longer significant");
