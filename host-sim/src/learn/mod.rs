@@ -312,10 +312,11 @@ pub fn learn(
 /// The learned quantities that compete with an added effect for the same residuals,
 /// learned again with that effect in the layout (`cfg` carries it): the master's smooth
 /// errors, each tried against zero and smaller sizes (two passes), and their correlation
-/// time. The channel noise is not matched again: matched again, it moved where nothing
-/// competes (blind lever arm 109: the rate noise y 4.0e-5 → 1.1e-5 rad/s), and the
-/// structure's size, measured on the innovations whitened by it, was no longer
-/// comparable with the model's (it grew 0.567 → 0.597 and the lever arm was rejected). Learned without the effect, those quantities take its
+/// time; then the white noise of the channels whose smooth error moved (velocity,
+/// attitude), matched again. Not the others: matched again, the rate noise moved where
+/// nothing competes (blind lever arm 109: y 4.0e-5 → 1.1e-5 rad/s), and the structure's
+/// size, measured on the innovations whitened by it, was no longer comparable with the
+/// model's (it grew 0.567 → 0.597 and the lever arm was rejected). Learned without the effect, those quantities take its
 /// signature: a 0.5 m lever-arm error on blind draw 102 (white master, 5 mm/s) was
 /// learned as a smooth master velocity error of 0.21 m/s (τ 1 920 s), against which the
 /// lever arm then grew the structure's size and was rejected
@@ -369,6 +370,19 @@ pub fn refit_competing(
     }
     if competing.iter().any(|&p| s.model.get(p) > 0.0) {
         s.line(&[Param::MasterErrorCorrelation], h);
+    }
+    // The white noise of the channels whose smooth error moved, matched again: learned
+    // beside a smooth error, it was the smaller share (blind lever arm 107: both errors
+    // went to zero, the velocity and attitude noise stayed, and `lever_arm_coupling` and
+    // `gyro_scale_factor` took what was left, two spurious effects).
+    let moved = |p: Param| s.model.get(p) != from.get(p);
+    let channels = [
+        moved(Param::MasterVelocityError),
+        moved(Param::MasterAttitudeError),
+        false,
+    ];
+    if channels.iter().any(|&c| c) {
+        s.match_noise_of(rec, NOISE_ITERATIONS, channels);
     }
     Ok(Some(Refit {
         cfg: s.model.config(),

@@ -357,6 +357,13 @@ impl<'a> Search<'a> {
     /// from its innovations, `σ/√(2n)`. On `rec` (the search's window, or the whole
     /// recording for the final pass).
     pub fn match_noise(&mut self, rec: &Recording, iterations: usize) {
+        self.match_noise_of(rec, iterations, [true; 3]);
+    }
+
+    /// [`Search::match_noise`] on the chosen channels only (velocity, attitude, angular
+    /// rate); the others keep their noise.
+    pub fn match_noise_of(&mut self, rec: &Recording, iterations: usize, channels: [bool; 3]) {
+        let chosen = |k: usize| channels.get(k / 3).copied().unwrap_or(false);
         let params: [Param; 9] = [0, 1, 2, 3, 4, 5, 6, 7, 8].map(|i| match i / 3 {
             0 => Param::VelocityNoise(i % 3),
             1 => Param::AttitudeNoise(i % 3),
@@ -391,7 +398,8 @@ impl<'a> Search<'a> {
                 }
             }
             let nis: [f64; 9] = std::array::from_fn(|k| nis_sum[k] / counts[k].max(1) as f64);
-            if (0..9).all(|k| counts[k] == 0 || (nis[k] - 1.0).abs() < NIS_TOLERANCE) {
+            if (0..9).all(|k| !chosen(k) || counts[k] == 0 || (nis[k] - 1.0).abs() < NIS_TOLERANCE)
+            {
                 break;
             }
             for (k, &p) in params.iter().enumerate() {
@@ -399,7 +407,7 @@ impl<'a> Search<'a> {
                 let r = sigma * sigma;
                 // d(mean NIS)/dr at this r (∂s/∂r = 1).
                 let derivative = -slope[k] / counts[k].max(1) as f64;
-                if counts[k] > 0 && r > 0.0 {
+                if chosen(k) && counts[k] > 0 && r > 0.0 {
                     let next = next_variance(r, nis[k], derivative, previous[k]);
                     previous[k] = Some((r, nis[k]));
                     self.model.set(p, next.sqrt());
@@ -412,9 +420,10 @@ impl<'a> Search<'a> {
                 self.current = l;
             }
         }
-        let gain = (before - self.current.total) / 9.0;
+        let matched = (0..9).filter(|&k| chosen(k)).count().max(1);
+        let gain = (before - self.current.total) / matched as f64;
         for (k, &p) in params.iter().enumerate() {
-            if counts[k] > 0 {
+            if chosen(k) && counts[k] > 0 {
                 let v = self.model.get(p);
                 let sigma = v / (2.0 * counts[k] as f64).sqrt();
                 self.record(p, starts[k], Some(sigma), gain);
