@@ -617,22 +617,32 @@ mod tests {
         assert_eq!(by_byte.iter().filter(|r| r.is_ok()).count(), 4);
         assert!(by_byte.contains(&Err(DecodeError::Oversize)));
         for run in 1..=40 {
-            let mut r = Decoder::new();
-            let mut got = Vec::new();
-            for chunk in stream.chunks(run) {
-                let mut rest = chunk;
-                while !rest.is_empty() {
-                    let t = r.take_run(rest);
-                    rest = &rest[t..];
-                    if let Some((b, tail)) = rest.split_first() {
-                        got.extend(r.push(*b));
-                        rest = tail;
-                    }
+            let (got, counters) = decode_in_runs(stream, run);
+            assert_eq!(got, by_byte, "runs of {run}");
+            assert_eq!(counters, d.counters());
+        }
+    }
+
+    /// `stream` fed to a fresh decoder in chunks of `run` bytes, each chunk through
+    /// `take_run` and `push` as the transports feed it: the results and the counters.
+    fn decode_in_runs(
+        stream: &[u8],
+        run: usize,
+    ) -> (Vec<Result<Frame, DecodeError>>, DecoderCounters) {
+        let mut r = Decoder::new();
+        let mut got = Vec::new();
+        for chunk in stream.chunks(run) {
+            let mut rest = chunk;
+            while !rest.is_empty() {
+                let t = r.take_run(rest);
+                rest = &rest[t..];
+                if let Some((b, tail)) = rest.split_first() {
+                    got.extend(r.push(*b));
+                    rest = tail;
                 }
             }
-            assert_eq!(got, by_byte, "runs of {run}");
-            assert_eq!(r.counters(), d.counters());
         }
+        (got, r.counters())
     }
 
     /// The decoder as it was before issue12-s15: a frame's stuffed bytes buffered, and
@@ -745,21 +755,9 @@ mod tests {
         let by_byte: Vec<_> = stream.iter().filter_map(|b| d.push(*b)).collect();
         assert_eq!(by_byte, want);
         for run in [1, 2, 3, 7, 64, 255, 512] {
-            let mut r = Decoder::new();
-            let mut got = Vec::new();
-            for chunk in stream.chunks(run) {
-                let mut rest = chunk;
-                while !rest.is_empty() {
-                    let t = r.take_run(rest);
-                    rest = &rest[t..];
-                    if let Some((b, tail)) = rest.split_first() {
-                        got.extend(r.push(*b));
-                        rest = tail;
-                    }
-                }
-            }
+            let (got, counters) = decode_in_runs(&stream, run);
             assert_eq!(got, want, "runs of {run}");
-            assert_eq!(r.counters(), d.counters());
+            assert_eq!(counters, d.counters());
         }
     }
 

@@ -93,9 +93,10 @@ pub struct Options {
     /// (`cmd::calibrate::Prepared::learned_with_delay_s`); none: the model's own delay.
     pub delay_start_s: Option<f64>,
     /// The model learned from the recording, when it was (`learn`): the quantities of
-    /// it that compete with a rejected candidate are learned again with the candidate
-    /// in the layout (`learn::refit_competing`). `None`: the declared model is the
-    /// truth, nothing is learned again.
+    /// it that compete with a significant candidate are learned again with the
+    /// candidate in the layout (`learn::refit_competing`), for the first `MAX_REFITS`
+    /// considered in a round. `None`: the declared model is the truth, nothing is
+    /// learned again.
     pub learned: Option<CalibConfig>,
 }
 
@@ -466,6 +467,17 @@ fn state_shift(
         .fold(0.0, f64::max)
 }
 
+/// The Wald statistic, final estimate and σ of `effect`'s block in a model's run (NaN
+/// and empty when the run carries no such block).
+fn block_figures(run: &ModelEval, effect: Effect) -> (f64, Vec<f64>, Vec<f64>) {
+    run.result
+        .final_effects()
+        .into_iter()
+        .find(|r| r.effect == effect)
+        .map(|r| (r.wald, r.value, r.sigma))
+        .unwrap_or((f64::NAN, Vec::new(), Vec::new()))
+}
+
 /// Runs the diagnosis of a recording with its declared configuration.
 pub fn diagnose(
     rec: &Recording,
@@ -520,14 +532,7 @@ pub fn diagnose(
             let threshold = opts.threshold(dof);
             let test = match outcome {
                 Ok(run) => {
-                    let last = run
-                        .result
-                        .final_effects()
-                        .into_iter()
-                        .find(|r| r.effect == *effect);
-                    let (wald, estimate, sigma) = last
-                        .map(|r| (r.wald, r.value, r.sigma))
-                        .unwrap_or((f64::NAN, Vec::new(), Vec::new()));
+                    let (wald, estimate, sigma) = block_figures(run, *effect);
                     let lr = current.neg2ll - run.neg2ll;
                     let above_floor = above_floor(*effect, &estimate, span_s);
                     // An estimate beyond PLAUSIBLE_PRIORS prior σ is not a value of this
@@ -664,12 +669,7 @@ pub fn diagnose(
             let again = evaluate::run_model(rec, &refit.cfg)?;
             let h_again = evaluate::holdout(rec, &again.cfg, opts.holdout_fraction)?;
             let effect = untried.get(k).copied();
-            let block = again
-                .result
-                .final_effects()
-                .into_iter()
-                .find(|r| Some(r.effect) == effect);
-            let (wald, estimate, sigma) = block.map(|r| (r.wald, r.value, r.sigma)).unwrap_or((
+            let (wald, estimate, sigma) = effect.map(|e| block_figures(&again, e)).unwrap_or((
                 f64::NAN,
                 Vec::new(),
                 Vec::new(),

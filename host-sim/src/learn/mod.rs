@@ -310,18 +310,21 @@ pub fn learn(
 }
 
 /// The learned quantities that compete with an added effect for the same residuals,
-/// learned again with that effect in the layout (`cfg` carries it): the master's smooth
-/// errors, each tried against zero and smaller sizes (two passes), and their correlation
-/// time; then the white noise of the channels whose smooth error moved (velocity,
-/// attitude), matched again. Not the others: matched again, the rate noise moved where
-/// nothing competes (blind lever arm 109: y 4.0e-5 → 1.1e-5 rad/s), and the structure's
-/// size, measured on the innovations whitened by it, was no longer comparable with the
-/// model's (it grew 0.567 → 0.597 and the lever arm was rejected). Learned without the effect, those quantities take its
-/// signature: a 0.5 m lever-arm error on blind draw 102 (white master, 5 mm/s) was
-/// learned as a smooth master velocity error of 0.21 m/s (τ 1 920 s), against which the
-/// lever arm then grew the structure's size and was rejected
-/// (`docs/diagnosis.md`, "Session 15"). Nothing else is learned again: the slave's noise
-/// and the flexure are the sensor's and the hull's, which an effect does not replace.
+/// learned again with that effect in the layout (`cfg` carries it). Learned without the
+/// effect, they take its signature: a 0.5 m lever-arm error on blind draw 102 (white
+/// master, 5 mm/s) was learned as a smooth master velocity error of 0.21 m/s (τ 1 920 s),
+/// against which the lever arm grew the structure's size and was rejected
+/// (`docs/diagnosis.md`, "Session 15").
+///
+/// Learned again: the master's smooth errors, each tried against zero and smaller sizes
+/// (two passes), and their correlation time; then the white noise of the channels whose
+/// smooth error moved (velocity, attitude). Nothing else: the slave's noise and the
+/// flexure are the sensor's and the hull's, which an effect does not replace, and the
+/// rate noise, matched again, moved where nothing competes (blind lever arm 109: y
+/// 4.0e-5 → 1.1e-5 rad/s), after which the structure's size, measured on innovations
+/// whitened by it, was no longer comparable with the model's (0.567 → 0.597, the lever
+/// arm rejected).
+///
 /// The search starts from the values of `learned` (the model learned without any
 /// effect), so that a model that dropped an effect finds its smooth errors again.
 /// `None` when `learned` carries no smooth master error (nothing competes).
