@@ -359,7 +359,11 @@ pub struct Engine<T: Real, const S: usize = N> {
     /// `cfg`: asked at every IMU sample and master message, the scan of the layout's
     /// blocks cost the board ≈ 0.4k instructions a master update.
     has_delay: bool,
-    /// The master's last angular rates `(t, ω_ib^bm)` (for the delay's rate column).
+    /// Whether `cfg`'s layout carries a lever-arm block ([`layout_has_lever_arm`]), kept
+    /// with `cfg` as `has_delay`.
+    has_lever_arm: bool,
+    /// The master's last angular rates `(t, ω_ib^bm)` (for the delay's rate column and
+    /// the lever-arm columns' instrument).
     past_master_rates: Deque<(f64, Vector3<T>), RATE_HISTORY>,
     /// Where the master's rates run without a gap ([`RateRun`]).
     rate_run: RateRun,
@@ -521,6 +525,15 @@ fn layout_has_delay<T: Real>(cfg: &EngineConfig<T>) -> bool {
     cfg.augmentation.blocks().any(|b| b.effect.is_clock())
 }
 
+/// Whether `cfg`'s layout carries a lever-arm block (`lever_arm_error`,
+/// `lever_arm_coupling`), whose columns take the master's rate from its past rates
+/// ([`RateFit::value`]; its current rate where they do not cover their window).
+fn layout_has_lever_arm<T: Real>(cfg: &EngineConfig<T>) -> bool {
+    cfg.augmentation
+        .blocks()
+        .any(|b| matches!(b.effect, Effect::LeverArmError | Effect::LeverArmCoupling))
+}
+
 impl<T: Real, const S: usize> Engine<T, S> {
     /// A new engine; it initializes the slave solution from the first master message.
     pub fn new(cfg: EngineConfig<T>) -> Result<Self, EngineError> {
@@ -560,6 +573,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             g_force_bs: None,
             frozen: false,
             has_delay: layout_has_delay(&cfg),
+            has_lever_arm: layout_has_lever_arm(&cfg),
             cfg,
         }
     }
@@ -607,6 +621,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         self.g_force_bs = None;
         self.frozen = false;
         self.has_delay = layout_has_delay(&cfg);
+        self.has_lever_arm = layout_has_lever_arm(&cfg);
         self.cfg = cfg;
         Ok(())
     }
@@ -1237,8 +1252,9 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 q_bm_n: msg.q_bm_n,
             });
             // The rates' run in every layout (its cover holds the velocity and rate
-            // channels, `measure`); the rates themselves and the velocity trend only for
-            // the delay's columns and the g-sensitivity's rate column.
+            // channels, `measure`); the rates themselves for the delay's columns, the
+            // g-sensitivity's rate column and the lever arm's instrument, the velocity
+            // trend for the first two.
             let keep = self.has_delay()
                 || self
                     .cfg
@@ -1247,11 +1263,13 @@ impl<T: Real, const S: usize> Engine<T, S> {
                     .is_some();
             if let Some(w) = msg.w_ib_bm {
                 self.rate_run.push(msg.t);
-                if keep {
+                if keep || self.has_lever_arm {
                     if self.past_master_rates.is_full() {
                         let _ = self.past_master_rates.pop_front();
                     }
                     let _ = self.past_master_rates.push_back((msg.t, w));
+                }
+                if keep {
                     self.master_trend.push(msg.t, &msg.v_n);
                 }
             }
@@ -1420,6 +1438,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             past_master_rates: &self.past_master_rates,
             master_trend: &self.master_trend,
             has_delay: self.has_delay(),
+            lever_instrument: self.has_lever_arm,
             rates_cover: self.rate_run.covers(msg.t),
             clock_dt: self.clock_dt(msg.t),
         };
@@ -1649,6 +1668,9 @@ struct Nominal<'a, T: Real> {
     master_trend: &'a VelocityTrend<T>,
     /// Whether the layout carries the master delay (`Engine::has_delay`).
     has_delay: bool,
+    /// Whether the layout carries a lever-arm block, whose columns take the master's
+    /// rate from its past rates (`Engine::has_lever_arm`).
+    lever_instrument: bool,
     /// Whether the master's past rates cover their window before this message
     /// ([`RateRun::covers`]).
     rates_cover: bool,
@@ -1700,18 +1722,20 @@ fn measure<T: Real>(
         master_rate_wrt_earth(msg, e.prev_master.as_ref(), e.cfg, &here, &c_bm_n);
     let rate = e.buffer.rate_at(t_s).ok();
     // The master's angular acceleration at the message, for the delay's rate and
-    // velocity columns.
+    // velocity columns, and its rate there from its previous rates, the lever-arm
+    // columns' instrument.
     let gives_rate = msg.w_ib_bm.is_some();
     let covered = gives_rate && e.rates_cover;
-    let slope = if e.has_delay && covered {
+    let fit = if (e.has_delay || e.lever_instrument) && covered {
         // The master's own rate noise variance (rad²/s²; the lever arm's, which holds
         // none of the slave side's model error).
         let sigma = e.cfg.measurement_noise.lever_arm_rate_radps;
         let noise_var = sigma * sigma;
-        master_rate_slope(e.past_master_rates, msg.t, noise_var)
+        master_rate_fit(e.past_master_rates, msg.t, noise_var)
     } else {
         None
     };
+    let slope = fit.filter(|_| e.has_delay).map(|f| f.slope);
     // Where the master gives its rate but its past rates do not yet cover their window
     // (the start, a gap), the delay has no rate or velocity column, while those
     // residuals hold the delay's `τ ω̇` and `τ v̇`: matched with a zero column, they
@@ -1722,7 +1746,7 @@ fn measure<T: Real>(
     // innovations and their likelihoods compare (`diagnose`).
     let held = gives_rate && (!covered || (e.has_delay && slope.is_none()));
     let sig = (!e.cfg.augmentation.is_empty()).then(|| {
-        let ingredients = (rate.as_ref(), slope);
+        let ingredients = (rate.as_ref(), fit);
         signature(e, msg, ingredients, slave, &here, &c_bm_n, &w_eb, flexure)
     });
     let velocity = (m.velocity && !held).then(|| {
@@ -1832,8 +1856,25 @@ fn master_rate_wrt_earth<T: Real>(
     }
 }
 
-/// The master's angular acceleration at `t_msg`, the stamp of the message being
-/// matched (rad/s², master body): the derivative there of a least-squares quartic
+/// The master's rate and angular acceleration at `t_msg` from its previous rates.
+#[derive(Clone, Copy, Debug)]
+struct RateFit<T: Real> {
+    /// The fitted rate at `t_msg` (rad/s, master body): the lever-arm columns'
+    /// instrument. The rate of the message at `t_msg` carries noise that is also in its
+    /// own velocity residual (through the arm, `C [n×] r0`); a column built from it is
+    /// correlated with that residual's noise, and on a long arm, where the flexure's rate
+    /// can take most of the lever arm's velocity, that errors-in-variables bias was
+    /// −3.7 cm on a 12 m arm with a 184 °/h master. A parabola through the three previous
+    /// rates has 19 times their noise variance and read a 0.43 m arm 10 % short there; a
+    /// line through two is 1 % large at 1 rad/s and a 10 Hz master (docs/diagnosis.md
+    /// "Session 16").
+    value: Vector3<T>,
+    /// The fitted angular acceleration at `t_msg` (rad/s², master body): the delay's.
+    slope: Vector3<T>,
+}
+
+/// The master's rate and angular acceleration at `t_msg`, the stamp of the message being
+/// matched (master body): the value and derivative there of a least-squares quartic
 /// through the kept rates of the last `RATE_WINDOW_S` (a straight line's slope would
 /// belong to the window's middle; a parabola's is 6 % large and 16 ms late at a
 /// ship's 1.14 rad/s, and the attitude and rate rows together must see the delay as
@@ -1843,11 +1884,11 @@ fn master_rate_wrt_earth<T: Real>(
 /// 10 Hz master: 13.75 ± 0.04 ms with the rate channel, 17.00 ± 0.07 without it).
 /// `None` with fewer than `RATE_MIN` rates in the window (asked only once [`RateRun`]
 /// covers it).
-fn master_rate_slope<T: Real>(
+fn master_rate_fit<T: Real>(
     rates: &Deque<(f64, Vector3<T>), RATE_HISTORY>,
     t_msg: f64,
     noise_var: T,
-) -> Option<Vector3<T>> {
+) -> Option<RateFit<T>> {
     let (t0, t1) = rate_window(rates)?;
     // Least squares in Legendre polynomials of u = (t − t_mid) / half over the window's
     // span [t0, t1]: their normal matrix is nearly diagonal, so single precision solves
@@ -1886,9 +1927,11 @@ fn master_rate_slope<T: Real>(
             }
         }
     }
-    let (_, dp) = legendre(T::of((t_msg - t_mid) / half));
+    let (p, dp) = legendre(T::of((t_msg - t_mid) / half));
+    let value = coef.transpose() * p;
     let slope = coef.transpose() * dp / T::of(half);
-    slope.iter().all(|v| v.is_finite()).then_some(slope)
+    let finite = value.iter().chain(slope.iter()).all(|v| v.is_finite());
+    finite.then_some(RateFit { value, slope })
 }
 
 /// The first and last times of the master's past rates within `RATE_WINDOW_S` before
@@ -1994,21 +2037,25 @@ fn master_rate_difference<T: Real>(
 }
 
 /// The columns' ingredients of the augmented blocks for the message `msg` matched at
-/// slave time `t_s`; `rate`: the slave's rate there, `slope`: the master's angular
-/// acceleration at the message (rad/s², master body; [`master_rate_slope`], `None`
-/// without a delay in the layout), `here`: the Earth model at the master's position,
+/// slave time `t_s`; `rate`: the slave's rate there, `fit`: the master's rate and
+/// angular acceleration at the message from its previous rates ([`master_rate_fit`],
+/// `None` without a delay or a lever-arm block in the layout; its slope read only with
+/// a delay, its rate only with a lever-arm block), `here`: the Earth model at the
+/// master's position,
 /// `flexure`: θ(t_s) and θ̇ (see [`measure`]).
 #[allow(clippy::too_many_arguments)]
 fn signature<T: Real>(
     e: &Nominal<'_, T>,
     msg: &MasterNav<T>,
-    (rate, slope): (Option<&RateAt<T>>, Option<Vector3<T>>),
+    (rate, fit): (Option<&RateAt<T>>, Option<RateFit<T>>),
     slave: &SlaveAt<T>,
     here: &earth::Local<T>,
     c_bm_n: &Matrix3<T>,
     w_eb_bm: &Vector3<T>,
     flexure: &(Vector3<T>, Vector3<T>),
 ) -> Signature<T> {
+    let slope = fit.filter(|_| e.has_delay).map(|f| f.slope);
+    let lever_rate = fit.filter(|_| e.lever_instrument).map(|f| f.value);
     let c_bs_n = dcm(&slave.q_b_n);
     let w_ib_bs = rate.map_or(Vector3::zeros(), |r| r.raw_b - e.gyro_bias);
     let f_bs = rate.map_or(Vector3::zeros(), |r| r.f_raw_b - e.accel_bias);
@@ -2105,9 +2152,16 @@ fn signature<T: Real>(
         }
         _ => f_bs,
     };
+    // The lever-arm columns' rate: the instrument where the master's past rates give it
+    // (`master_rate_fit`), as a rate relative to the Earth by the current message's
+    // Earth part.
+    let lever_rate = match (msg.w_ib_bm, lever_rate) {
+        (Some(w_ib), Some(w)) => Some(vec3(|i| vget(w_eb_bm, i) + (vget(&w, i) - vget(&w_ib, i)))),
+        _ => None,
+    };
     Signature {
         c_bm_n: *c_bm_n,
-        w_eb_bm: *w_eb_bm,
+        w_eb_bm: lever_rate.unwrap_or(*w_eb_bm),
         lever_v_n: mul3v(c_bm_n, &w_eb_bm.cross(&e.cfg.lever_arm_m)),
         v_dot_n,
         w_nb_bs,

@@ -354,3 +354,38 @@ fn a_flexing_slave_shows_no_master_delay_through_velocity_given_the_declared_mod
     let (tau, sigma) = declared_delay_on_draw_107(&["velocity"]);
     assert!(tau.abs() <= 3.0 * sigma, "delay {tau} s ± {sigma} s");
 }
+
+/// The lever-arm columns take the master's rate from a parabola through its previous
+/// rates (`engine::rate_instrument`), not from the rate of the message they match: that
+/// rate's noise is in the velocity residual through the arm (`C [n×] r0`), and a column
+/// built from it is correlated with it. Blind draw 101 (no effect; a 12 m arm along x, a
+/// 100 Hz master with 184 °/h of rate noise, a flexure whose rate can carry most of the
+/// arm's velocity), calibrated with its own model (handed to the filter on purpose: the
+/// check is of the column, not of the learner) and the lever-arm error asked for: every
+/// axis within 3σ of zero. With the current rate in the column: x −3.7 ± 0.46 cm (−8σ),
+/// z +1.1 ± 0.17 cm (`docs/diagnosis.md`, "Session 16").
+#[test]
+fn a_noisy_master_rate_on_a_long_arm_makes_no_lever_arm_error_given_the_declared_model() {
+    use flexcal_sim::calib::run::{run as calibrate, Precision};
+    use flexcal_sim::sim::blind::draw;
+    let seed = 101;
+    let sc = draw(seed, 300.0, None);
+    let rec = simulate(&sc, seed).recording;
+    let mut cfg = CalibConfig::declared_for(&sc, 1.0 / sc.master.rate_hz);
+    cfg.effects = vec![Effect::LeverArmError.name().to_string()];
+    cfg.mounting_estimate_rad = Some(sc.misalignment_deg.map(f64::to_radians));
+    let res = calibrate(&rec, &cfg, Precision::F64).expect("calibrate");
+    let e = res
+        .final_effects()
+        .into_iter()
+        .find(|e| e.effect == Effect::LeverArmError)
+        .expect("the lever-arm block");
+    for (v, s) in e.value.iter().zip(&e.sigma) {
+        assert!(
+            v.abs() <= 3.0 * s,
+            "lever arm {:?} ± {:?} m",
+            e.value,
+            e.sigma
+        );
+    }
+}
