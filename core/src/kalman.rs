@@ -759,6 +759,31 @@ fn axpy2<T: Real>(d0: &mut [T], d1: &mut [T], a0: T, a1: T, src: &[T]) {
     }
 }
 
+/// Rows of Φ that [`Kalman::phi_u_rows`] forms together when they share their columns
+/// (the error model's δv and ψ: six rows over the same twelve columns and the augmented
+/// ones), each U row read once for all of them.
+const LANES: usize = 6;
+
+/// `dst[e LANES + q] += f[q] · src[e]` for each lane `q` over the shorter of `dst`'s
+/// `LANES`-element chunks and `src`: [`axpy`] on `LANES` rows at once, each element's
+/// arithmetic its own. The rows are held column by column (chunk `e` the rows' elements
+/// `e`), so one pointer walks all of them and each `src[e]` is read once: on the board two
+/// pointers and six multiply-adds an element, where [`axpy2`] takes three pointers for two.
+#[inline(always)]
+fn axpy_lanes<T: Real>(dst: &mut [T], f: &[T; LANES], src: &[T]) {
+    let [f0, f1, f2, f3, f4, f5] = *f;
+    for (d, &s) in dst.chunks_exact_mut(LANES).zip(src) {
+        if let [d0, d1, d2, d3, d4, d5] = d {
+            *d0 += f0 * s;
+            *d1 += f1 * s;
+            *d2 += f2 * s;
+            *d3 += f3 * s;
+            *d4 += f4 * s;
+            *d5 += f5 * s;
+        }
+    }
+}
+
 /// Puts the factors into the order `state_at` (the state at each new position; `pos` its
 /// inverse, `n` of each) if `U` stays upper triangular in it (no `U(i, j) ≠ 0` with
 /// `pos i > pos j`): `u` (column-major `n × n`, entries above the diagonal) and each of
@@ -1356,11 +1381,63 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             let cols = phi.cols.get(r).and_then(|c| c.get(..n)).unwrap_or(&[]);
             (at(inv, i), cols, phi.values.get(r))
         };
-        // Two rows at a time where they share their columns (δv's and ψ's six rows):
-        // each U row read once for both, each row's elements computed as alone.
+        // `LANES` rows at a time where they share their columns (δv's and ψ's six rows),
+        // held column by column in their rows' place of `active` (see [`axpy_lanes`]);
+        // else two where two do, else one. Each U row is read once for the rows taken
+        // together, each row's elements computed as alone. Bit r of `lanes_at`: rows r to
+        // r + LANES were taken together.
+        const { assert!(R <= 64, "the rows taken together are the bits of a u64") };
+        let mut lanes_at = 0u64;
         let mut r = 0;
         while r < R {
             let (inv0, cols0, vals0) = row_of(r);
+            let run =
+                r + LANES <= R && (r + 1..r + LANES).all(|q| same_columns(cols0, row_of(q).1));
+            let vals = phi.values.get(r..r + LANES);
+            let vals = vals.and_then(|v| <&[[T; N]; LANES]>::try_from(v).ok());
+            if let (true, Some(rows), Some([v0, v1, v2, v3, v4, v5])) =
+                (run, active.get_mut(r..r + LANES), vals)
+            {
+                let flat = rows.as_flattened_mut();
+                let [i0, i1, i2, i3, i4, i5] = core::array::from_fn(|q| row_of(r + q).0);
+                let (mut lo, mut xn) = (N as u8, [T::zero(); LANES]);
+                for &k in cols0 {
+                    let (k, a) = (usize::from(k), internal(usize::from(k)));
+                    lo = lo.min(a as u8);
+                    let (sa, xa) = (at(sc, a), at(xs, a));
+                    let f = [
+                        at(v0, k) * sa * i0,
+                        at(v1, k) * sa * i1,
+                        at(v2, k) * sa * i2,
+                        at(v3, k) * sa * i3,
+                        at(v4, k) * sa * i4,
+                        at(v5, k) * sa * i5,
+                    ];
+                    let [x0, x1, x2, x3, x4, x5] = &mut xn;
+                    let [f0, f1, f2, f3, f4, f5] = f;
+                    *x0 += f0 * xa;
+                    *x1 += f1 * xa;
+                    *x2 += f2 * xa;
+                    *x3 += f3 * xa;
+                    *x4 += f4 * xa;
+                    *x5 += f5 * xa;
+                    let src = u.get(a * N + a..(a + 1) * N).unwrap_or(&[]);
+                    axpy_lanes(flat.get_mut(a * LANES..).unwrap_or(&mut []), &f, src);
+                }
+                for &x in &xn {
+                    check += x;
+                }
+                check = sum_into(check, flat);
+                for (q, &x) in xn.iter().enumerate() {
+                    if let (Some(l), Some(e)) = (active_lo.get_mut(r + q), x_new.get_mut(r + q)) {
+                        *l = lo;
+                        *e = x;
+                    }
+                }
+                lanes_at |= 1 << r;
+                r += LANES;
+                continue;
+            }
             let (inv1, cols1, vals1) = row_of(r + 1);
             let pair = r + 1 < R && same_columns(cols0, cols1);
             let (first, rest) = active.split_at_mut((r + 1).min(R));
@@ -1424,11 +1501,36 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             }
         }
         let mut lo: [u8; N] = core::array::from_fn(|i| i as u8);
-        for ((row, &l), &i) in active.iter().zip(active_lo.iter()).zip(phi.index.iter()) {
-            let i = internal(i);
-            if let (Some(dst), Some(e)) = (u.get_mut(i * N..(i + 1) * N), lo.get_mut(i)) {
-                copy_words(dst, row);
+        for (&l, &i) in active_lo.iter().zip(phi.index.iter()) {
+            if let Some(e) = lo.get_mut(internal(i)) {
                 *e = l;
+            }
+        }
+        let mut r = 0;
+        while r < R {
+            let row_at = |q: usize| {
+                let i = phi.index.get(q).map_or(N, |&i| internal(i));
+                i * N..(i + 1) * N
+            };
+            if lanes_at >> r & 1 != 0 {
+                // The rows taken together, column by column, into their rows of U.
+                let rows = active.get(r..r + LANES).unwrap_or(&[]);
+                let lanes = rows.as_flattened();
+                for q in 0..LANES {
+                    if let Some(dst) = u.get_mut(row_at(r + q)) {
+                        for (d, lane) in dst.iter_mut().zip(lanes.chunks_exact(LANES)) {
+                            if let Some(&v) = lane.get(q) {
+                                *d = v;
+                            }
+                        }
+                    }
+                }
+                r += LANES;
+            } else {
+                if let (Some(dst), Some(row)) = (u.get_mut(row_at(r)), active.get(r)) {
+                    copy_words(dst, row);
+                }
+                r += 1;
             }
         }
         Some(lo)
