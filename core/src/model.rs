@@ -258,8 +258,15 @@ fn powers<T: Real>(ft: &[T], f2: &mut [T], f3: &mut [T], cols: &[usize]) {
         let col = ft.get(j * DYN..j * DYN + DYN).unwrap_or(&[]);
         // Written out over the six rows: the size-optimized image does not unroll, and the
         // loop cost three times its multiply-adds (the same arithmetic, element by element).
-        // (A column out of range, never, leaves the zeros.)
+        // (A column out of range, never, leaves the zeros.) A zero `F t(k, j)` is skipped:
+        // its terms `l · 0` are zeros, and adding a zero to `acc` leaves it as it is (`acc`
+        // starts at +0 and a sum is −0 only of two −0, so it is never −0); most of F's
+        // columns have one to three non-zeros among the six rows (the biases' identity and
+        // attitude matrix, the augmented columns).
         for (lk, &fkj) in left.iter().zip(col) {
+            if fkj == T::zero() {
+                continue;
+            }
             let ([a0, a1, a2, a3, a4, a5], [l0, l1, l2, l3, l4, l5]) = (&mut acc, lk);
             *a0 += *l0 * fkj;
             *a1 += *l1 * fkj;
