@@ -170,7 +170,8 @@ pub fn transition<T: Real, const S: usize>(
 }
 
 /// The states of Φ's rows that are not the identity's, in the order of [`Phi`]'s rows: δv
-/// and ψ, then the flexure's θ and θ̇.
+/// and ψ, then the flexure's θ and θ̇ axis by axis (an axis's two rows share their two
+/// columns, so the time update forms them as a pair: `Kalman::predict`).
 pub const PHI_ROWS: [usize; ACTIVE] = [
     V,
     V + 1,
@@ -179,10 +180,10 @@ pub const PHI_ROWS: [usize; ACTIVE] = [
     PSI + 1,
     PSI + 2,
     TH,
-    TH + 1,
-    TH + 2,
     THD,
+    TH + 1,
     THD + 1,
+    TH + 2,
     THD + 2,
 ];
 
@@ -223,11 +224,11 @@ pub fn transition_into<T: Real, const S: usize>(
             id + mat::get(&ft, i, j) + mat::get(&f2, i, j) * half + mat::get(&f3, i, j) * sixth
         });
     }
-    // The flexure rows: θ_k (row DYN + k) and θ̇_k (row DYN + 3 + k) of each axis's model.
+    // The flexure rows: θ_k (row DYN + 2k) and θ̇_k (row DYN + 2k + 1) of each axis's model.
     for (axis, ar) in flex.axes.iter().enumerate() {
         let a = ar.transition(flex.period_s);
         let (th, thd) = (TH + axis, THD + axis);
-        for (r, row) in [(DYN + axis, 0), (DYN + 3 + axis, 1)] {
+        for (r, row) in [(DYN + 2 * axis, 0), (DYN + 2 * axis + 1, 1)] {
             phi.set_row_at(r, &[th, thd], |j| {
                 let col = if j == th { 0 } else { 1 };
                 mat::get(&a, row, col)
