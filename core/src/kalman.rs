@@ -466,8 +466,10 @@ impl<T: Real, const N: usize> NoisePart<T, N> {
                     *d = wm;
                 }
                 let t = q.n;
-                // Rows after m are zero at m and at t ≤ m (U_Q is upper triangular).
-                for row in q.w.iter_mut().take(m + 1) {
+                // Rows after m are zero at m and at t ≤ m (U_Q is upper triangular). A
+                // column already in its place (every weighted column before it is too:
+                // the error model's, whose noisy states come first) is not moved.
+                for row in q.w.iter_mut().take(if t < m { m + 1 } else { 0 }) {
                     if let Some(v) = row.get(m).copied() {
                         if let Some(e) = row.get_mut(t) {
                             *e = v;
