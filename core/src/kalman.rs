@@ -1710,8 +1710,13 @@ fn project<T: Real>(
         return T::zero();
     };
     // f = Uᵀ h over h's non-zeros in the caller's order (a row of U each, from its
-    // diagonal on: f_i += v · 1, then row i after its diagonal), and h x.
+    // diagonal on: f_i += v · 1, then row i after its diagonal), and h x. Two rows at a
+    // time, as the non-zeros come: each element of f read and written once for both, its
+    // two terms added in that order (the rows from the first one's start: U's stored zeros
+    // before a row's diagonal add zeros, which leave f as it is: f starts at +0 and a sum
+    // is −0 only of two −0).
     let mut hx = T::zero();
+    let mut first: Option<(usize, T)> = None;
     loop {
         let c = if marked != 0 {
             let c = marked.trailing_zeros();
@@ -1730,10 +1735,28 @@ fn project<T: Real>(
             let i = usize::from(p);
             let v = hk * scale.get(i).copied().unwrap_or_else(T::zero);
             hx += v * xs.get(i).copied().unwrap_or_else(T::zero);
-            // From the diagonal: U(i, i) = 1 is stored, and v · 1 = v exactly.
-            if let (Some(fs), Some(row)) = (f.get_mut(i..), u.get(i * n + i..(i + 1) * n)) {
-                axpy(fs, v, row);
+            let Some((i0, v0)) = first.take() else {
+                first = Some((i, v));
+                continue;
+            };
+            // From the first diagonal: U(i, i) = 1 is stored, and v · 1 = v exactly.
+            let m = i0.min(i);
+            if let (Some(fs), Some(r0), Some(r1)) = (
+                f.get_mut(m..),
+                u.get(i0 * n + m..(i0 + 1) * n),
+                u.get(i * n + m..(i + 1) * n),
+            ) {
+                for ((e, &a), &b) in fs.iter_mut().zip(r0).zip(r1) {
+                    *e += v0 * a;
+                    *e += v * b;
+                }
             }
+        }
+    }
+    // An odd last non-zero alone.
+    if let Some((i, v)) = first {
+        if let (Some(fs), Some(row)) = (f.get_mut(i..), u.get(i * n + i..(i + 1) * n)) {
+            axpy(fs, v, row);
         }
     }
     hx
