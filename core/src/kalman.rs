@@ -658,6 +658,24 @@ fn orthogonalize_n<T: Real>(w: Gram<'_, T>, scratch: [&mut [T]; 4], floor: T, t0
                     pivot.reduce(w0, q0, lo0, a);
                     break;
                 };
+                if let Some((w2, q2, lo2, u2)) = rows.next() {
+                    let (w_0, w_1, w_2) = dot3([&*w0, &*w1, &*w2], pivot.cw);
+                    let (q_0, q_1, q_2) = dot3([&*q0, &*q1, &*q2], pivot.cq);
+                    let a = [(w_0 + q_0) * inv, (w_1 + q_1) * inv, (w_2 + q_2) * inv];
+                    (*u0, *u1, *u2) = (a[0], a[1], a[2]);
+                    if a.iter().all(|&v| v != T::zero()) {
+                        axpy3([w0, w1, w2], a, pivot.w);
+                        axpy3([q0, q1, q2], a, pivot.q);
+                        *lo0 = (*lo0).min(pivot.l);
+                        *lo1 = (*lo1).min(pivot.l);
+                        *lo2 = (*lo2).min(pivot.l);
+                    } else {
+                        pivot.reduce(w0, q0, lo0, a[0]);
+                        pivot.reduce(w1, q1, lo1, a[1]);
+                        pivot.reduce(w2, q2, lo2, a[2]);
+                    }
+                    continue;
+                }
                 let (w_0, w_1) = dot2(w0, w1, pivot.cw);
                 let (q_0, q_1) = dot2(q0, q1, pivot.cq);
                 let (a0, a1) = ((w_0 + q_0) * inv, (w_1 + q_1) * inv);
@@ -749,6 +767,69 @@ fn dot2<T: Real>(a: &[T], b: &[T], c: &[T]) -> (T, T) {
         t0 += y * z;
     }
     (s0 + s1, t0 + t1)
+}
+
+/// [`dot2`] for three rows: each dot bit for bit [`dot`]'s, `c` read once for the three.
+#[inline(always)]
+fn dot3<T: Real>([a, b, e]: [&[T]; 3], c: &[T]) -> (T, T, T) {
+    let n = a.len().min(b.len()).min(e.len()).min(c.len());
+    let (a, b, e, c) = (
+        a.get(..n).unwrap_or(&[]),
+        b.get(..n).unwrap_or(&[]),
+        e.get(..n).unwrap_or(&[]),
+        c.get(..n).unwrap_or(&[]),
+    );
+    let z = T::zero();
+    let (mut s0, mut s1, mut t0, mut t1, mut u0, mut u1) = (z, z, z, z, z, z);
+    let (mut a4, mut b4, mut e4, mut c4) = (
+        a.chunks_exact(4),
+        b.chunks_exact(4),
+        e.chunks_exact(4),
+        c.chunks_exact(4),
+    );
+    for (((x, y), v), z) in (&mut a4).zip(&mut b4).zip(&mut e4).zip(&mut c4) {
+        if let ([x0, x1, x2, x3], [y0, y1, y2, y3], [v0, v1, v2, v3], [z0, z1, z2, z3]) =
+            (x, y, v, z)
+        {
+            let (z0, z1, z2, z3) = (*z0, *z1, *z2, *z3);
+            s0 += *x0 * z0;
+            s1 += *x1 * z1;
+            s0 += *x2 * z2;
+            s1 += *x3 * z3;
+            t0 += *y0 * z0;
+            t1 += *y1 * z1;
+            t0 += *y2 * z2;
+            t1 += *y3 * z3;
+            u0 += *v0 * z0;
+            u1 += *v1 * z1;
+            u0 += *v2 * z2;
+            u1 += *v3 * z3;
+        }
+    }
+    let rest = a4
+        .remainder()
+        .iter()
+        .zip(b4.remainder())
+        .zip(e4.remainder())
+        .zip(c4.remainder());
+    for (((&x, &y), &v), &z) in rest {
+        s0 += x * z;
+        t0 += y * z;
+        u0 += v * z;
+    }
+    (s0 + s1, t0 + t1, u0 + u1)
+}
+
+/// `d_k ← d_k − a_k src` for three rows (each element's arithmetic [`axpy`]'s with `−a_k`),
+/// `src` read once for the three.
+#[inline(always)]
+fn axpy3<T: Real>([d0, d1, d2]: [&mut [T]; 3], [a0, a1, a2]: [T; 3], src: &[T]) {
+    let (a0, a1, a2) = (-a0, -a1, -a2);
+    for (((p, q), r), &s) in d0.iter_mut().zip(d1.iter_mut()).zip(d2.iter_mut()).zip(src) {
+        *p += a0 * s;
+        *q += a1 * s;
+        *r += a2 * s;
+    }
 }
 
 /// [`axpy`] on two rows with the same `src`, each element's arithmetic its own: `src`
