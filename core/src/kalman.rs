@@ -363,6 +363,24 @@ fn bierman_rows<T: Real>(
     (b0, b1)
 }
 
+/// [`bierman_rows`] for three rows, each from `b = 0`: each element's arithmetic the
+/// column sweep's, λ_k and g_k read once for the three rows.
+#[inline(always)]
+fn bierman_rows3<T: Real>([r0, r1, r2]: [&mut [T]; 3], lambda: &[T], g: &[T]) -> [T; 3] {
+    let (mut b0, mut b1, mut b2) = (T::zero(), T::zero(), T::zero());
+    let rows = r0.iter_mut().zip(r1.iter_mut()).zip(r2.iter_mut());
+    for (((p, q), w), (&l, &gk)) in rows.zip(lambda.iter().zip(g)) {
+        let (u0, v0, w0) = (*p, *q, *w);
+        *p = u0 + l * b0;
+        b0 += u0 * gk;
+        *q = v0 + l * b1;
+        b1 += v0 * gk;
+        *w = w0 + l * b2;
+        b2 += w0 * gk;
+    }
+    [b0, b1, b2]
+}
+
 /// The process noise's part of the weighted Gram-Schmidt matrix of a time update: `Q`'s
 /// UD factors `Q = U_Q D_Q U_Qᵀ`, row-major, only the columns with a positive weight kept
 /// (most states take no process noise: their columns would only add zeros).
@@ -640,8 +658,9 @@ fn orthogonalize_n<T: Real>(w: Gram<'_, T>, scratch: [&mut [T]; 4], floor: T, t0
                 cq: cq.get(..qj.len()).unwrap_or(&[]),
                 l: l as u8,
             };
-            // The earlier rows two at a time: each of the pivot's elements read once for
-            // both (its loops' set-up, as costly as their arithmetic, paid once per pair).
+            // The earlier rows three at a time (the last two as a pair, one alone): each
+            // of the pivot's elements read once for them (its loops' set-up, as costly as
+            // their arithmetic, paid once per group).
             let mut rows = top
                 .chunks_exact_mut(n.max(1))
                 .zip(qtop.chunks_exact_mut(n.max(1)))
@@ -1624,7 +1643,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// (Bierman): `f = Uᵀ h` over h's non-zeros, `g = D f`, the innovation variance
     /// `r + Σ f_j g_j` (a sum of terms that are not negative: no cancellation, where
     /// `h P hᵀ` of a precise measurement cancels to below `f32`'s resolution), then D and
-    /// λ column by column and U two rows at a time (the column sweep's arithmetic, see
+    /// λ column by column and U three rows at a time (the column sweep's arithmetic, see
     /// [`bierman_rows`]). Each conditional variance below the floor is raised to it.
     pub fn update_scalar(&mut self, h: &SVector<T, N>, z: T, r: T, gate: T) -> ScalarUpdate<T> {
         self.update_scalar_on(h, (0, 0), z, r, gate)
@@ -1843,10 +1862,10 @@ fn project<T: Real>(
     hx
 }
 
-/// Bierman's U two rows at a time (contiguous), each row's `b_i = (P h)_i` ending in its
-/// state's step `x_i += step b_i` (K = P h / s, x ← x + K ν); `λ` and `g` from
-/// [`update_n`]'s column pass, `lo..hi` the columns with `f ≠ 0`. Rows i and i + 1 both
-/// from a column at or before max(lo, i), b from zero: a row through its own column
+/// Bierman's U three rows at a time (contiguous; the last one or two as a pair or alone),
+/// each row's `b_i = (P h)_i` ending in its state's step `x_i += step b_i` (K = P h / s,
+/// x ← x + K ν); `λ` and `g` from [`update_n`]'s column pass, `lo..hi` the columns with
+/// `f ≠ 0`. The rows i to i + 2 all from a column at or before max(lo, i), b from zero: a row through its own column
 /// (U(i, i) = 1 stored, kept as 1 + λ_i 0) takes b_i = 0 + g_i, its value at the column
 /// sweep's column i; through the columns before it (zeros stored, b = 0) it stays as it
 /// was, and so do the columns before lo (λ = g = 0, the identity's steps).
@@ -1863,29 +1882,46 @@ fn sweep<T: Real>(
         return;
     };
     let hi = hi.min(n);
-    let mut pairs = u.chunks_exact_mut((2 * n).max(1));
-    let mut x2 = xs.chunks_exact_mut(2);
-    for (p, (rows, x)) in (&mut pairs).zip(&mut x2).enumerate() {
-        let from = lo.max(2 * p).min(hi);
+    let mut triples = u.chunks_exact_mut((3 * n).max(1));
+    let mut x3 = xs.chunks_exact_mut(3);
+    for (p, (rows, x)) in (&mut triples).zip(&mut x3).enumerate() {
+        let from = lo.max(3 * p).min(hi);
+        let (r0, rest) = rows.split_at_mut(n.min(rows.len()));
+        let (r1, r2) = rest.split_at_mut(n.min(rest.len()));
+        let b = match (
+            r0.get_mut(from..hi),
+            r1.get_mut(from..hi),
+            r2.get_mut(from..hi),
+            lambda.get(from..hi),
+            g.get(from..hi),
+        ) {
+            (Some(r0), Some(r1), Some(r2), Some(ls), Some(gs)) => {
+                bierman_rows3([r0, r1, r2], ls, gs)
+            }
+            _ => [T::zero(); 3],
+        };
+        for (x, b) in x.iter_mut().zip(b) {
+            *x += step * b;
+        }
+    }
+    // The last one or two rows (n not a multiple of three): a pair as the triples, or one,
+    // which has no column after its own.
+    let start = n - n % 3;
+    let (rows, x) = (triples.into_remainder(), x3.into_remainder());
+    if let [x0, x1] = x {
+        let from = lo.max(start).min(hi);
         let (top, bottom) = rows.split_at_mut(n.min(rows.len()));
-        let (b0, b1) = match (
+        if let (Some(r0), Some(r1), Some(ls), Some(gs)) = (
             top.get_mut(from..hi),
             bottom.get_mut(from..hi),
             lambda.get(from..hi),
             g.get(from..hi),
         ) {
-            (Some(r0), Some(r1), Some(ls), Some(gs)) => {
-                bierman_rows(r0, r1, ls, gs, (T::zero(), T::zero()))
-            }
-            _ => (T::zero(), T::zero()),
-        };
-        if let [x0, x1] = x {
+            let (b0, b1) = bierman_rows(r0, r1, ls, gs, (T::zero(), T::zero()));
             *x0 += step * b0;
             *x1 += step * b1;
         }
-    }
-    // An odd last row has no column after it.
-    if let (Some(x), Some(&gi)) = (x2.into_remainder().first_mut(), g.get(n - n % 2)) {
+    } else if let (Some(x), Some(&gi)) = (x.first_mut(), g.get(start)) {
         *x += step * gi;
     }
 }
