@@ -1714,8 +1714,22 @@ fn update_n<T: Real>(
     let [f, g] = scratch;
     let n = pos.len();
     let hx = project(f, (h, marked, past), (u, xs, scale, pos));
+    // f's first and last non-zero: `g = D f` and `s` over them only (outside, f = +0, so
+    // g's zeros as lent are `D f`'s, and `s + f g = s + 0 = s`).
+    let lo = f.iter().position(|&v| v != T::zero()).unwrap_or(n);
+    let hi = f.iter().rposition(|&v| v != T::zero()).map_or(0, |j| j + 1);
+    // An all-zero f (lo = n, hi = 0) is an empty range: the update goes on as before.
+    let hi = hi.max(lo);
     let mut s = r;
-    for ((gj, &fj), &dj) in g.iter_mut().zip(f.iter()).zip(d.iter()) {
+    let (Some(gs), Some(fs), Some(ds)) = (g.get_mut(lo..hi), f.get(lo..hi), d.get(lo..hi)) else {
+        return ScalarUpdate {
+            innovation: z - hx,
+            variance: s,
+            test_ratio: T::zero(),
+            accepted: false,
+        };
+    };
+    for ((gj, &fj), &dj) in gs.iter_mut().zip(fs).zip(ds) {
         *gj = dj * fj;
         s += fj * *gj;
     }
@@ -1750,10 +1764,6 @@ fn update_n<T: Real>(
     // columns before the first and after the last other one are left out.
     let mut alpha = r;
     let mut clamped = 0;
-    let lo = f.iter().position(|&v| v != T::zero()).unwrap_or(n);
-    let hi = f.iter().rposition(|&v| v != T::zero()).map_or(0, |j| j + 1);
-    // An all-zero f (lo = n, hi = 0) is an empty range: the update goes on as before.
-    let hi = hi.max(lo);
     let (Some(fs), Some(ds), Some(gs)) = (f.get_mut(lo..hi), d.get_mut(lo..hi), g.get(lo..hi))
     else {
         return refused;
