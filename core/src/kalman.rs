@@ -363,6 +363,24 @@ fn bierman_rows<T: Real>(
     (b0, b1)
 }
 
+/// [`bierman_rows`] for three rows, each from `b = 0`: each element's arithmetic the
+/// column sweep's, λ_k and g_k read once for the three rows.
+#[inline(always)]
+fn bierman_rows3<T: Real>([r0, r1, r2]: [&mut [T]; 3], lambda: &[T], g: &[T]) -> [T; 3] {
+    let (mut b0, mut b1, mut b2) = (T::zero(), T::zero(), T::zero());
+    let rows = r0.iter_mut().zip(r1.iter_mut()).zip(r2.iter_mut());
+    for (((p, q), w), (&l, &gk)) in rows.zip(lambda.iter().zip(g)) {
+        let (u0, v0, w0) = (*p, *q, *w);
+        *p = u0 + l * b0;
+        b0 += u0 * gk;
+        *q = v0 + l * b1;
+        b1 += v0 * gk;
+        *w = w0 + l * b2;
+        b2 += w0 * gk;
+    }
+    [b0, b1, b2]
+}
+
 /// The process noise's part of the weighted Gram-Schmidt matrix of a time update: `Q`'s
 /// UD factors `Q = U_Q D_Q U_Qᵀ`, row-major, only the columns with a positive weight kept
 /// (most states take no process noise: their columns would only add zeros).
@@ -466,8 +484,10 @@ impl<T: Real, const N: usize> NoisePart<T, N> {
                     *d = wm;
                 }
                 let t = q.n;
-                // Rows after m are zero at m and at t ≤ m (U_Q is upper triangular).
-                for row in q.w.iter_mut().take(m + 1) {
+                // Rows after m are zero at m and at t ≤ m (U_Q is upper triangular). A
+                // column already in its place (every weighted column before it is too:
+                // the error model's, whose noisy states come first) is not moved.
+                for row in q.w.iter_mut().take(if t < m { m + 1 } else { 0 }) {
                     if let Some(v) = row.get(m).copied() {
                         if let Some(e) = row.get_mut(t) {
                             *e = v;
@@ -638,8 +658,9 @@ fn orthogonalize_n<T: Real>(w: Gram<'_, T>, scratch: [&mut [T]; 4], floor: T, t0
                 cq: cq.get(..qj.len()).unwrap_or(&[]),
                 l: l as u8,
             };
-            // The earlier rows two at a time: each of the pivot's elements read once for
-            // both (its loops' set-up, as costly as their arithmetic, paid once per pair).
+            // The earlier rows three at a time (the last two as a pair, one alone): each
+            // of the pivot's elements read once for them (its loops' set-up, as costly as
+            // their arithmetic, paid once per group).
             let mut rows = top
                 .chunks_exact_mut(n.max(1))
                 .zip(qtop.chunks_exact_mut(n.max(1)))
@@ -656,6 +677,24 @@ fn orthogonalize_n<T: Real>(w: Gram<'_, T>, scratch: [&mut [T]; 4], floor: T, t0
                     pivot.reduce(w0, q0, lo0, a);
                     break;
                 };
+                if let Some((w2, q2, lo2, u2)) = rows.next() {
+                    let (w_0, w_1, w_2) = dot3([&*w0, &*w1, &*w2], pivot.cw);
+                    let (q_0, q_1, q_2) = dot3([&*q0, &*q1, &*q2], pivot.cq);
+                    let a = [(w_0 + q_0) * inv, (w_1 + q_1) * inv, (w_2 + q_2) * inv];
+                    (*u0, *u1, *u2) = (a[0], a[1], a[2]);
+                    if a.iter().all(|&v| v != T::zero()) {
+                        axpy3([w0, w1, w2], a, pivot.w);
+                        axpy3([q0, q1, q2], a, pivot.q);
+                        *lo0 = (*lo0).min(pivot.l);
+                        *lo1 = (*lo1).min(pivot.l);
+                        *lo2 = (*lo2).min(pivot.l);
+                    } else {
+                        pivot.reduce(w0, q0, lo0, a[0]);
+                        pivot.reduce(w1, q1, lo1, a[1]);
+                        pivot.reduce(w2, q2, lo2, a[2]);
+                    }
+                    continue;
+                }
                 let (w_0, w_1) = dot2(w0, w1, pivot.cw);
                 let (q_0, q_1) = dot2(q0, q1, pivot.cq);
                 let (a0, a1) = ((w_0 + q_0) * inv, (w_1 + q_1) * inv);
@@ -749,6 +788,69 @@ fn dot2<T: Real>(a: &[T], b: &[T], c: &[T]) -> (T, T) {
     (s0 + s1, t0 + t1)
 }
 
+/// [`dot2`] for three rows: each dot bit for bit [`dot`]'s, `c` read once for the three.
+#[inline(always)]
+fn dot3<T: Real>([a, b, e]: [&[T]; 3], c: &[T]) -> (T, T, T) {
+    let n = a.len().min(b.len()).min(e.len()).min(c.len());
+    let (a, b, e, c) = (
+        a.get(..n).unwrap_or(&[]),
+        b.get(..n).unwrap_or(&[]),
+        e.get(..n).unwrap_or(&[]),
+        c.get(..n).unwrap_or(&[]),
+    );
+    let z = T::zero();
+    let (mut s0, mut s1, mut t0, mut t1, mut u0, mut u1) = (z, z, z, z, z, z);
+    let (mut a4, mut b4, mut e4, mut c4) = (
+        a.chunks_exact(4),
+        b.chunks_exact(4),
+        e.chunks_exact(4),
+        c.chunks_exact(4),
+    );
+    for (((x, y), v), z) in (&mut a4).zip(&mut b4).zip(&mut e4).zip(&mut c4) {
+        if let ([x0, x1, x2, x3], [y0, y1, y2, y3], [v0, v1, v2, v3], [z0, z1, z2, z3]) =
+            (x, y, v, z)
+        {
+            let (z0, z1, z2, z3) = (*z0, *z1, *z2, *z3);
+            s0 += *x0 * z0;
+            s1 += *x1 * z1;
+            s0 += *x2 * z2;
+            s1 += *x3 * z3;
+            t0 += *y0 * z0;
+            t1 += *y1 * z1;
+            t0 += *y2 * z2;
+            t1 += *y3 * z3;
+            u0 += *v0 * z0;
+            u1 += *v1 * z1;
+            u0 += *v2 * z2;
+            u1 += *v3 * z3;
+        }
+    }
+    let rest = a4
+        .remainder()
+        .iter()
+        .zip(b4.remainder())
+        .zip(e4.remainder())
+        .zip(c4.remainder());
+    for (((&x, &y), &v), &z) in rest {
+        s0 += x * z;
+        t0 += y * z;
+        u0 += v * z;
+    }
+    (s0 + s1, t0 + t1, u0 + u1)
+}
+
+/// `d_k ← d_k − a_k src` for three rows (each element's arithmetic [`axpy`]'s with `−a_k`),
+/// `src` read once for the three.
+#[inline(always)]
+fn axpy3<T: Real>([d0, d1, d2]: [&mut [T]; 3], [a0, a1, a2]: [T; 3], src: &[T]) {
+    let (a0, a1, a2) = (-a0, -a1, -a2);
+    for (((p, q), r), &s) in d0.iter_mut().zip(d1.iter_mut()).zip(d2.iter_mut()).zip(src) {
+        *p += a0 * s;
+        *q += a1 * s;
+        *r += a2 * s;
+    }
+}
+
 /// [`axpy`] on two rows with the same `src`, each element's arithmetic its own: `src`
 /// read once for both. A plain loop, as [`axpy`].
 #[inline(always)]
@@ -756,6 +858,31 @@ fn axpy2<T: Real>(d0: &mut [T], d1: &mut [T], a0: T, a1: T, src: &[T]) {
     for ((p, q), &s) in d0.iter_mut().zip(d1.iter_mut()).zip(src) {
         *p += a0 * s;
         *q += a1 * s;
+    }
+}
+
+/// Rows of Φ that [`Kalman::phi_u_rows`] forms together when they share their columns
+/// (the error model's δv and ψ: six rows over the same twelve columns and the augmented
+/// ones), each U row read once for all of them.
+const LANES: usize = 6;
+
+/// `dst[e LANES + q] += f[q] · src[e]` for each lane `q` over the shorter of `dst`'s
+/// `LANES`-element chunks and `src`: [`axpy`] on `LANES` rows at once, each element's
+/// arithmetic its own. The rows are held column by column (chunk `e` the rows' elements
+/// `e`), so one pointer walks all of them and each `src[e]` is read once: on the board two
+/// pointers and six multiply-adds an element, where [`axpy2`] takes three pointers for two.
+#[inline(always)]
+fn axpy_lanes<T: Real>(dst: &mut [T], f: &[T; LANES], src: &[T]) {
+    let [f0, f1, f2, f3, f4, f5] = *f;
+    for (d, &s) in dst.chunks_exact_mut(LANES).zip(src) {
+        if let [d0, d1, d2, d3, d4, d5] = d {
+            *d0 += f0 * s;
+            *d1 += f1 * s;
+            *d2 += f2 * s;
+            *d3 += f3 * s;
+            *d4 += f4 * s;
+            *d5 += f5 * s;
+        }
     }
 }
 
@@ -1356,11 +1483,63 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             let cols = phi.cols.get(r).and_then(|c| c.get(..n)).unwrap_or(&[]);
             (at(inv, i), cols, phi.values.get(r))
         };
-        // Two rows at a time where they share their columns (δv's and ψ's six rows):
-        // each U row read once for both, each row's elements computed as alone.
+        // `LANES` rows at a time where they share their columns (δv's and ψ's six rows),
+        // held column by column in their rows' place of `active` (see [`axpy_lanes`]);
+        // else two where two do, else one. Each U row is read once for the rows taken
+        // together, each row's elements computed as alone. Bit r of `lanes_at`: rows r to
+        // r + LANES were taken together.
+        const { assert!(R <= 64, "the rows taken together are the bits of a u64") };
+        let mut lanes_at = 0u64;
         let mut r = 0;
         while r < R {
             let (inv0, cols0, vals0) = row_of(r);
+            let run =
+                r + LANES <= R && (r + 1..r + LANES).all(|q| same_columns(cols0, row_of(q).1));
+            let vals = phi.values.get(r..r + LANES);
+            let vals = vals.and_then(|v| <&[[T; N]; LANES]>::try_from(v).ok());
+            if let (true, Some(rows), Some([v0, v1, v2, v3, v4, v5])) =
+                (run, active.get_mut(r..r + LANES), vals)
+            {
+                let flat = rows.as_flattened_mut();
+                let [i0, i1, i2, i3, i4, i5] = core::array::from_fn(|q| row_of(r + q).0);
+                let (mut lo, mut xn) = (N as u8, [T::zero(); LANES]);
+                for &k in cols0 {
+                    let (k, a) = (usize::from(k), internal(usize::from(k)));
+                    lo = lo.min(a as u8);
+                    let (sa, xa) = (at(sc, a), at(xs, a));
+                    let f = [
+                        at(v0, k) * sa * i0,
+                        at(v1, k) * sa * i1,
+                        at(v2, k) * sa * i2,
+                        at(v3, k) * sa * i3,
+                        at(v4, k) * sa * i4,
+                        at(v5, k) * sa * i5,
+                    ];
+                    let [x0, x1, x2, x3, x4, x5] = &mut xn;
+                    let [f0, f1, f2, f3, f4, f5] = f;
+                    *x0 += f0 * xa;
+                    *x1 += f1 * xa;
+                    *x2 += f2 * xa;
+                    *x3 += f3 * xa;
+                    *x4 += f4 * xa;
+                    *x5 += f5 * xa;
+                    let src = u.get(a * N + a..(a + 1) * N).unwrap_or(&[]);
+                    axpy_lanes(flat.get_mut(a * LANES..).unwrap_or(&mut []), &f, src);
+                }
+                for &x in &xn {
+                    check += x;
+                }
+                check = sum_into(check, flat);
+                for (q, &x) in xn.iter().enumerate() {
+                    if let (Some(l), Some(e)) = (active_lo.get_mut(r + q), x_new.get_mut(r + q)) {
+                        *l = lo;
+                        *e = x;
+                    }
+                }
+                lanes_at |= 1 << r;
+                r += LANES;
+                continue;
+            }
             let (inv1, cols1, vals1) = row_of(r + 1);
             let pair = r + 1 < R && same_columns(cols0, cols1);
             let (first, rest) = active.split_at_mut((r + 1).min(R));
@@ -1424,11 +1603,36 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             }
         }
         let mut lo: [u8; N] = core::array::from_fn(|i| i as u8);
-        for ((row, &l), &i) in active.iter().zip(active_lo.iter()).zip(phi.index.iter()) {
-            let i = internal(i);
-            if let (Some(dst), Some(e)) = (u.get_mut(i * N..(i + 1) * N), lo.get_mut(i)) {
-                copy_words(dst, row);
+        for (&l, &i) in active_lo.iter().zip(phi.index.iter()) {
+            if let Some(e) = lo.get_mut(internal(i)) {
                 *e = l;
+            }
+        }
+        let mut r = 0;
+        while r < R {
+            let row_at = |q: usize| {
+                let i = phi.index.get(q).map_or(N, |&i| internal(i));
+                i * N..(i + 1) * N
+            };
+            if lanes_at >> r & 1 != 0 {
+                // The rows taken together, column by column, into their rows of U.
+                let rows = active.get(r..r + LANES).unwrap_or(&[]);
+                let lanes = rows.as_flattened();
+                for q in 0..LANES {
+                    if let Some(dst) = u.get_mut(row_at(r + q)) {
+                        for (d, lane) in dst.iter_mut().zip(lanes.chunks_exact(LANES)) {
+                            if let Some(&v) = lane.get(q) {
+                                *d = v;
+                            }
+                        }
+                    }
+                }
+                r += LANES;
+            } else {
+                if let (Some(dst), Some(row)) = (u.get_mut(row_at(r)), active.get(r)) {
+                    copy_words(dst, row);
+                }
+                r += 1;
             }
         }
         Some(lo)
@@ -1439,7 +1643,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// (Bierman): `f = Uᵀ h` over h's non-zeros, `g = D f`, the innovation variance
     /// `r + Σ f_j g_j` (a sum of terms that are not negative: no cancellation, where
     /// `h P hᵀ` of a precise measurement cancels to below `f32`'s resolution), then D and
-    /// λ column by column and U two rows at a time (the column sweep's arithmetic, see
+    /// λ column by column and U three rows at a time (the column sweep's arithmetic, see
     /// [`bierman_rows`]). Each conditional variance below the floor is raised to it.
     pub fn update_scalar(&mut self, h: &SVector<T, N>, z: T, r: T, gate: T) -> ScalarUpdate<T> {
         self.update_scalar_on(h, (0, 0), z, r, gate)
@@ -1510,8 +1714,22 @@ fn update_n<T: Real>(
     let [f, g] = scratch;
     let n = pos.len();
     let hx = project(f, (h, marked, past), (u, xs, scale, pos));
+    // f's first and last non-zero: `g = D f` and `s` over them only (outside, f = +0, so
+    // g's zeros as lent are `D f`'s, and `s + f g = s + 0 = s`).
+    let lo = f.iter().position(|&v| v != T::zero()).unwrap_or(n);
+    let hi = f.iter().rposition(|&v| v != T::zero()).map_or(0, |j| j + 1);
+    // An all-zero f (lo = n, hi = 0) is an empty range: the update goes on as before.
+    let hi = hi.max(lo);
     let mut s = r;
-    for ((gj, &fj), &dj) in g.iter_mut().zip(f.iter()).zip(d.iter()) {
+    let (Some(gs), Some(fs), Some(ds)) = (g.get_mut(lo..hi), f.get(lo..hi), d.get(lo..hi)) else {
+        return ScalarUpdate {
+            innovation: z - hx,
+            variance: s,
+            test_ratio: T::zero(),
+            accepted: false,
+        };
+    };
+    for ((gj, &fj), &dj) in gs.iter_mut().zip(fs).zip(ds) {
         *gj = dj * fj;
         s += fj * *gj;
     }
@@ -1546,10 +1764,6 @@ fn update_n<T: Real>(
     // columns before the first and after the last other one are left out.
     let mut alpha = r;
     let mut clamped = 0;
-    let lo = f.iter().position(|&v| v != T::zero()).unwrap_or(n);
-    let hi = f.iter().rposition(|&v| v != T::zero()).map_or(0, |j| j + 1);
-    // An all-zero f (lo = n, hi = 0) is an empty range: the update goes on as before.
-    let hi = hi.max(lo);
     let (Some(fs), Some(ds), Some(gs)) = (f.get_mut(lo..hi), d.get_mut(lo..hi), g.get(lo..hi))
     else {
         return refused;
@@ -1606,8 +1820,13 @@ fn project<T: Real>(
         return T::zero();
     };
     // f = Uᵀ h over h's non-zeros in the caller's order (a row of U each, from its
-    // diagonal on: f_i += v · 1, then row i after its diagonal), and h x.
+    // diagonal on: f_i += v · 1, then row i after its diagonal), and h x. Two rows at a
+    // time, as the non-zeros come: each element of f read and written once for both, its
+    // two terms added in that order (the rows from the first one's start: U's stored zeros
+    // before a row's diagonal add zeros, which leave f as it is: f starts at +0 and a sum
+    // is −0 only of two −0).
     let mut hx = T::zero();
+    let mut first: Option<(usize, T)> = None;
     loop {
         let c = if marked != 0 {
             let c = marked.trailing_zeros();
@@ -1626,19 +1845,37 @@ fn project<T: Real>(
             let i = usize::from(p);
             let v = hk * scale.get(i).copied().unwrap_or_else(T::zero);
             hx += v * xs.get(i).copied().unwrap_or_else(T::zero);
-            // From the diagonal: U(i, i) = 1 is stored, and v · 1 = v exactly.
-            if let (Some(fs), Some(row)) = (f.get_mut(i..), u.get(i * n + i..(i + 1) * n)) {
-                axpy(fs, v, row);
+            let Some((i0, v0)) = first.take() else {
+                first = Some((i, v));
+                continue;
+            };
+            // From the first diagonal: U(i, i) = 1 is stored, and v · 1 = v exactly.
+            let m = i0.min(i);
+            if let (Some(fs), Some(r0), Some(r1)) = (
+                f.get_mut(m..),
+                u.get(i0 * n + m..(i0 + 1) * n),
+                u.get(i * n + m..(i + 1) * n),
+            ) {
+                for ((e, &a), &b) in fs.iter_mut().zip(r0).zip(r1) {
+                    *e += v0 * a;
+                    *e += v * b;
+                }
             }
+        }
+    }
+    // An odd last non-zero alone.
+    if let Some((i, v)) = first {
+        if let (Some(fs), Some(row)) = (f.get_mut(i..), u.get(i * n + i..(i + 1) * n)) {
+            axpy(fs, v, row);
         }
     }
     hx
 }
 
-/// Bierman's U two rows at a time (contiguous), each row's `b_i = (P h)_i` ending in its
-/// state's step `x_i += step b_i` (K = P h / s, x ← x + K ν); `λ` and `g` from
-/// [`update_n`]'s column pass, `lo..hi` the columns with `f ≠ 0`. Rows i and i + 1 both
-/// from a column at or before max(lo, i), b from zero: a row through its own column
+/// Bierman's U three rows at a time (contiguous; the last one or two as a pair or alone),
+/// each row's `b_i = (P h)_i` ending in its state's step `x_i += step b_i` (K = P h / s,
+/// x ← x + K ν); `λ` and `g` from [`update_n`]'s column pass, `lo..hi` the columns with
+/// `f ≠ 0`. The rows i to i + 2 all from a column at or before max(lo, i), b from zero: a row through its own column
 /// (U(i, i) = 1 stored, kept as 1 + λ_i 0) takes b_i = 0 + g_i, its value at the column
 /// sweep's column i; through the columns before it (zeros stored, b = 0) it stays as it
 /// was, and so do the columns before lo (λ = g = 0, the identity's steps).
@@ -1655,29 +1892,46 @@ fn sweep<T: Real>(
         return;
     };
     let hi = hi.min(n);
-    let mut pairs = u.chunks_exact_mut((2 * n).max(1));
-    let mut x2 = xs.chunks_exact_mut(2);
-    for (p, (rows, x)) in (&mut pairs).zip(&mut x2).enumerate() {
-        let from = lo.max(2 * p).min(hi);
+    let mut triples = u.chunks_exact_mut((3 * n).max(1));
+    let mut x3 = xs.chunks_exact_mut(3);
+    for (p, (rows, x)) in (&mut triples).zip(&mut x3).enumerate() {
+        let from = lo.max(3 * p).min(hi);
+        let (r0, rest) = rows.split_at_mut(n.min(rows.len()));
+        let (r1, r2) = rest.split_at_mut(n.min(rest.len()));
+        let b = match (
+            r0.get_mut(from..hi),
+            r1.get_mut(from..hi),
+            r2.get_mut(from..hi),
+            lambda.get(from..hi),
+            g.get(from..hi),
+        ) {
+            (Some(r0), Some(r1), Some(r2), Some(ls), Some(gs)) => {
+                bierman_rows3([r0, r1, r2], ls, gs)
+            }
+            _ => [T::zero(); 3],
+        };
+        for (x, b) in x.iter_mut().zip(b) {
+            *x += step * b;
+        }
+    }
+    // The last one or two rows (n not a multiple of three): a pair as the triples, or one,
+    // which has no column after its own.
+    let start = n - n % 3;
+    let (rows, x) = (triples.into_remainder(), x3.into_remainder());
+    if let [x0, x1] = x {
+        let from = lo.max(start).min(hi);
         let (top, bottom) = rows.split_at_mut(n.min(rows.len()));
-        let (b0, b1) = match (
+        if let (Some(r0), Some(r1), Some(ls), Some(gs)) = (
             top.get_mut(from..hi),
             bottom.get_mut(from..hi),
             lambda.get(from..hi),
             g.get(from..hi),
         ) {
-            (Some(r0), Some(r1), Some(ls), Some(gs)) => {
-                bierman_rows(r0, r1, ls, gs, (T::zero(), T::zero()))
-            }
-            _ => (T::zero(), T::zero()),
-        };
-        if let [x0, x1] = x {
+            let (b0, b1) = bierman_rows(r0, r1, ls, gs, (T::zero(), T::zero()));
             *x0 += step * b0;
             *x1 += step * b1;
         }
-    }
-    // An odd last row has no column after it.
-    if let (Some(x), Some(&gi)) = (x2.into_remainder().first_mut(), g.get(n - n % 2)) {
+    } else if let (Some(x), Some(&gi)) = (x.first_mut(), g.get(start)) {
         *x += step * gi;
     }
 }

@@ -170,7 +170,8 @@ pub fn transition<T: Real, const S: usize>(
 }
 
 /// The states of Φ's rows that are not the identity's, in the order of [`Phi`]'s rows: δv
-/// and ψ, then the flexure's θ and θ̇.
+/// and ψ, then the flexure's θ and θ̇ axis by axis (an axis's two rows share their two
+/// columns, so the time update forms them as a pair: `Kalman::predict`).
 pub const PHI_ROWS: [usize; ACTIVE] = [
     V,
     V + 1,
@@ -179,10 +180,10 @@ pub const PHI_ROWS: [usize; ACTIVE] = [
     PSI + 1,
     PSI + 2,
     TH,
-    TH + 1,
-    TH + 2,
     THD,
+    TH + 1,
     THD + 1,
+    TH + 2,
     THD + 2,
 ];
 
@@ -223,11 +224,11 @@ pub fn transition_into<T: Real, const S: usize>(
             id + mat::get(&ft, i, j) + mat::get(&f2, i, j) * half + mat::get(&f3, i, j) * sixth
         });
     }
-    // The flexure rows: θ_k (row DYN + k) and θ̇_k (row DYN + 3 + k) of each axis's model.
+    // The flexure rows: θ_k (row DYN + 2k) and θ̇_k (row DYN + 2k + 1) of each axis's model.
     for (axis, ar) in flex.axes.iter().enumerate() {
         let a = ar.transition(flex.period_s);
         let (th, thd) = (TH + axis, THD + axis);
-        for (r, row) in [(DYN + axis, 0), (DYN + 3 + axis, 1)] {
+        for (r, row) in [(DYN + 2 * axis, 0), (DYN + 2 * axis + 1, 1)] {
             phi.set_row_at(r, &[th, thd], |j| {
                 let col = if j == th { 0 } else { 1 };
                 mat::get(&a, row, col)
@@ -258,8 +259,15 @@ fn powers<T: Real>(ft: &[T], f2: &mut [T], f3: &mut [T], cols: &[usize]) {
         let col = ft.get(j * DYN..j * DYN + DYN).unwrap_or(&[]);
         // Written out over the six rows: the size-optimized image does not unroll, and the
         // loop cost three times its multiply-adds (the same arithmetic, element by element).
-        // (A column out of range, never, leaves the zeros.)
+        // (A column out of range, never, leaves the zeros.) A zero `F t(k, j)` is skipped:
+        // its terms `l · 0` are zeros, and adding a zero to `acc` leaves it as it is (`acc`
+        // starts at +0 and a sum is −0 only of two −0, so it is never −0); most of F's
+        // columns have one to three non-zeros among the six rows (the biases' identity and
+        // attitude matrix, the augmented columns).
         for (lk, &fkj) in left.iter().zip(col) {
+            if fkj == T::zero() {
+                continue;
+            }
             let ([a0, a1, a2, a3, a4, a5], [l0, l1, l2, l3, l4, l5]) = (&mut acc, lk);
             *a0 += *l0 * fkj;
             *a1 += *l1 * fkj;
