@@ -1895,12 +1895,37 @@ fn master_rate_fit<T: Real>(
     // it (monomials would need `f64`, software arithmetic on the board); only the times'
     // differences are formed in `f64`.
     let (t_mid, half) = (0.5 * (t0 + t1), 0.5 * (t1 - t0));
+    // The normal matrix's upper triangle and the right-hand side summed element by
+    // element (nalgebra's outer products, a loop each on the board, cost ~1k
+    // instructions a rate), the times scaled by one reciprocal (a software `f64`
+    // division a rate); the lower triangle copied after.
     let mut normal = nalgebra::SMatrix::<T, RATE_TERMS, RATE_TERMS>::zeros();
     let mut rhs = nalgebra::SMatrix::<T, RATE_TERMS, 3>::zeros();
+    let inv_half = 1.0 / half;
     for &(t, w) in rates.iter().filter(|r| r.0 >= t0) {
-        let (p, _) = legendre(T::of((t - t_mid) / half));
-        normal += p * p.transpose();
-        rhs += p * w.transpose();
+        let (p, _) = legendre(T::of((t - t_mid) * inv_half));
+        for i in 0..RATE_TERMS {
+            let pi = vget(&p, i);
+            for j in i..RATE_TERMS {
+                if let Some(e) = normal.get_mut((i, j)) {
+                    *e += pi * vget(&p, j);
+                }
+            }
+            for k in 0..3 {
+                if let Some(e) = rhs.get_mut((i, k)) {
+                    *e += pi * vget(&w, k);
+                }
+            }
+        }
+    }
+    for i in 0..RATE_TERMS {
+        for j in 0..i {
+            if let Some(v) = normal.get((j, i)).copied() {
+                if let Some(e) = normal.get_mut((i, j)) {
+                    *e = v;
+                }
+            }
+        }
     }
     let chol = nalgebra::linalg::Cholesky::new(normal)?;
     let mut coef = chol.solve(&rhs);
