@@ -292,25 +292,39 @@ fn a_lever_arm_error_the_learned_master_error_took_is_found_once_learned_again()
     }
 }
 
-/// Blind draw 107 (300 s, no delay) calibrated with its own model and the delay asked
-/// for, matched on `matching`: the delay's estimate and σ (s).
-fn declared_delay_on_draw_107(matching: &[&str]) -> (f64, f64) {
+/// Blind draw `seed` (300 s, no effect drawn) calibrated with its own model (handed to
+/// the filter on purpose: these check the effects' columns, not the learner) and
+/// `effect` asked for, matched on `matching` (the draw's channels when `None`): the
+/// effect's estimate and σ per state.
+fn declared_effect_on_draw(
+    seed: u64,
+    effect: Effect,
+    matching: Option<&[&str]>,
+) -> (Vec<f64>, Vec<f64>) {
     use flexcal_sim::calib::run::{run as calibrate, Precision};
     use flexcal_sim::sim::blind::draw;
-    let seed = 107;
     let sc = draw(seed, 300.0, None);
     let rec = simulate(&sc, seed).recording;
     let mut cfg = CalibConfig::declared_for(&sc, 1.0 / sc.master.rate_hz);
-    cfg.matching = matching.iter().map(|c| c.to_string()).collect();
-    cfg.effects = vec![Effect::TimeDelay.name().to_string()];
+    if let Some(channels) = matching {
+        cfg.matching = channels.iter().map(|c| c.to_string()).collect();
+    }
+    cfg.effects = vec![effect.name().to_string()];
     cfg.mounting_estimate_rad = Some(sc.misalignment_deg.map(f64::to_radians));
     let res = calibrate(&rec, &cfg, Precision::F64).expect("calibrate");
     let e = res
         .final_effects()
         .into_iter()
-        .find(|e| e.effect == Effect::TimeDelay)
-        .expect("the delay block");
-    let (tau, sigma) = (e.value[0], e.sigma[0]);
+        .find(|e| e.effect == effect)
+        .expect("the effect's block");
+    (e.value, e.sigma)
+}
+
+/// Blind draw 107 (300 s, no delay) calibrated with its own model and the delay asked
+/// for, matched on `matching`: the delay's estimate and σ (s).
+fn declared_delay_on_draw_107(matching: &[&str]) -> (f64, f64) {
+    let (value, sigma) = declared_effect_on_draw(107, Effect::TimeDelay, Some(matching));
+    let (tau, sigma) = (value[0], sigma[0]);
     eprintln!(
         "{matching:?}: delay {:.4} ± {:.4} ms",
         tau * 1e3,
@@ -366,26 +380,8 @@ fn a_flexing_slave_shows_no_master_delay_through_velocity_given_the_declared_mod
 /// z +1.1 ± 0.17 cm (`docs/diagnosis.md`, "Session 16").
 #[test]
 fn a_noisy_master_rate_on_a_long_arm_makes_no_lever_arm_error_given_the_declared_model() {
-    use flexcal_sim::calib::run::{run as calibrate, Precision};
-    use flexcal_sim::sim::blind::draw;
-    let seed = 101;
-    let sc = draw(seed, 300.0, None);
-    let rec = simulate(&sc, seed).recording;
-    let mut cfg = CalibConfig::declared_for(&sc, 1.0 / sc.master.rate_hz);
-    cfg.effects = vec![Effect::LeverArmError.name().to_string()];
-    cfg.mounting_estimate_rad = Some(sc.misalignment_deg.map(f64::to_radians));
-    let res = calibrate(&rec, &cfg, Precision::F64).expect("calibrate");
-    let e = res
-        .final_effects()
-        .into_iter()
-        .find(|e| e.effect == Effect::LeverArmError)
-        .expect("the lever-arm block");
-    for (v, s) in e.value.iter().zip(&e.sigma) {
-        assert!(
-            v.abs() <= 3.0 * s,
-            "lever arm {:?} ± {:?} m",
-            e.value,
-            e.sigma
-        );
+    let (value, sigma) = declared_effect_on_draw(101, Effect::LeverArmError, None);
+    for (v, s) in value.iter().zip(&sigma) {
+        assert!(v.abs() <= 3.0 * s, "lever arm {value:?} ± {sigma:?} m");
     }
 }
