@@ -1438,7 +1438,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             past_master_rates: &self.past_master_rates,
             master_trend: &self.master_trend,
             has_delay: self.has_delay(),
-            lever_instrument: self.has_lever_arm,
+            has_lever_arm: self.has_lever_arm,
             rates_cover: self.rate_run.covers(msg.t),
             clock_dt: self.clock_dt(msg.t),
         };
@@ -1670,7 +1670,7 @@ struct Nominal<'a, T: Real> {
     has_delay: bool,
     /// Whether the layout carries a lever-arm block, whose columns take the master's
     /// rate from its past rates (`Engine::has_lever_arm`).
-    lever_instrument: bool,
+    has_lever_arm: bool,
     /// Whether the master's past rates cover their window before this message
     /// ([`RateRun::covers`]).
     rates_cover: bool,
@@ -1726,7 +1726,7 @@ fn measure<T: Real>(
     // columns' instrument.
     let gives_rate = msg.w_ib_bm.is_some();
     let covered = gives_rate && e.rates_cover;
-    let fit = if (e.has_delay || e.lever_instrument) && covered {
+    let fit = if (e.has_delay || e.has_lever_arm) && covered {
         // The master's own rate noise variance (rad²/s²; the lever arm's, which holds
         // none of the slave side's model error).
         let sigma = e.cfg.measurement_noise.lever_arm_rate_radps;
@@ -1865,9 +1865,9 @@ struct RateFit<T: Real> {
     /// correlated with that residual's noise, and on a long arm, where the flexure's rate
     /// can take most of the lever arm's velocity, that errors-in-variables bias was
     /// −3.7 cm on a 12 m arm with a 184 °/h master. A parabola through the three previous
-    /// rates has 19 times their noise variance and read a 0.43 m arm 10 % short there; a
-    /// line through two is 1 % large at 1 rad/s and a 10 Hz master (docs/diagnosis.md
-    /// "Session 16").
+    /// rates has 19 times their noise variance and read a 0.43 m arm there up to 2.5 %
+    /// short (attenuated); a line through two is 1 % large at 1 rad/s and a 10 Hz master
+    /// (docs/diagnosis.md "Session 16").
     value: Vector3<T>,
     /// The fitted angular acceleration at `t_msg` (rad/s², master body): the delay's.
     slope: Vector3<T>,
@@ -1895,10 +1895,10 @@ fn master_rate_fit<T: Real>(
     // it (monomials would need `f64`, software arithmetic on the board); only the times'
     // differences are formed in `f64`.
     let (t_mid, half) = (0.5 * (t0 + t1), 0.5 * (t1 - t0));
-    // The normal matrix's upper triangle and the right-hand side summed element by
-    // element (nalgebra's outer products, a loop each on the board, cost ~1k
-    // instructions a rate), the times scaled by one reciprocal (a software `f64`
-    // division a rate); the lower triangle copied after.
+    // The normal matrix's lower triangle (all `Cholesky::new` reads) and the right-hand
+    // side summed element by element (nalgebra's outer products, a loop each on the
+    // board, cost ~1k instructions a rate), the times scaled by one reciprocal (a
+    // software `f64` division a rate).
     let mut normal = nalgebra::SMatrix::<T, RATE_TERMS, RATE_TERMS>::zeros();
     let mut rhs = nalgebra::SMatrix::<T, RATE_TERMS, 3>::zeros();
     let inv_half = 1.0 / half;
@@ -1906,7 +1906,7 @@ fn master_rate_fit<T: Real>(
         let (p, _) = legendre(T::of((t - t_mid) * inv_half));
         for i in 0..RATE_TERMS {
             let pi = vget(&p, i);
-            for j in i..RATE_TERMS {
+            for j in 0..i + 1 {
                 if let Some(e) = normal.get_mut((i, j)) {
                     *e += pi * vget(&p, j);
                 }
@@ -1914,15 +1914,6 @@ fn master_rate_fit<T: Real>(
             for k in 0..3 {
                 if let Some(e) = rhs.get_mut((i, k)) {
                     *e += pi * vget(&w, k);
-                }
-            }
-        }
-    }
-    for i in 0..RATE_TERMS {
-        for j in 0..i {
-            if let Some(v) = normal.get((j, i)).copied() {
-                if let Some(e) = normal.get_mut((i, j)) {
-                    *e = v;
                 }
             }
         }
@@ -2080,7 +2071,6 @@ fn signature<T: Real>(
     flexure: &(Vector3<T>, Vector3<T>),
 ) -> Signature<T> {
     let slope = fit.filter(|_| e.has_delay).map(|f| f.slope);
-    let lever_rate = fit.filter(|_| e.lever_instrument).map(|f| f.value);
     let c_bs_n = dcm(&slave.q_b_n);
     let w_ib_bs = rate.map_or(Vector3::zeros(), |r| r.raw_b - e.gyro_bias);
     let f_bs = rate.map_or(Vector3::zeros(), |r| r.f_raw_b - e.accel_bias);
@@ -2180,8 +2170,10 @@ fn signature<T: Real>(
     // The lever-arm columns' rate: the instrument where the master's past rates give it
     // (`master_rate_fit`), as a rate relative to the Earth by the current message's
     // Earth part.
-    let lever_rate = match (msg.w_ib_bm, lever_rate) {
-        (Some(w_ib), Some(w)) => Some(vec3(|i| vget(w_eb_bm, i) + (vget(&w, i) - vget(&w_ib, i)))),
+    let lever_rate = match (msg.w_ib_bm, fit.filter(|_| e.has_lever_arm)) {
+        (Some(w_ib), Some(f)) => Some(vec3(|i| {
+            vget(w_eb_bm, i) + (vget(&f.value, i) - vget(&w_ib, i))
+        })),
         _ => None,
     };
     Signature {

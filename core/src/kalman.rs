@@ -1875,10 +1875,11 @@ fn project<T: Real>(
 /// Bierman's U three rows at a time (contiguous; the last one or two as a pair or alone),
 /// each row's `b_i = (P h)_i` ending in its state's step `x_i += step b_i` (K = P h / s,
 /// x ← x + K ν); `λ` and `g` from [`update_n`]'s column pass, `lo..hi` the columns with
-/// `f ≠ 0`. The rows i to i + 2 all from a column at or before max(lo, i), b from zero: a row through its own column
-/// (U(i, i) = 1 stored, kept as 1 + λ_i 0) takes b_i = 0 + g_i, its value at the column
-/// sweep's column i; through the columns before it (zeros stored, b = 0) it stays as it
-/// was, and so do the columns before lo (λ = g = 0, the identity's steps).
+/// `f ≠ 0`. The rows i to i + 2 all from a column at or before max(lo, i), b from zero:
+/// a row through its own column (U(i, i) = 1 stored, kept as 1 + λ_i 0) takes
+/// b_i = 0 + g_i, its value at the column sweep's column i; through the columns before
+/// it (zeros stored, b = 0) it stays as it was, and so do the columns before lo
+/// (λ = g = 0, the identity's steps).
 #[inline(never)]
 fn sweep<T: Real>(
     u: &mut [T],
