@@ -41,7 +41,7 @@ pub struct Args {
 /// model learned with a delay found before the filter compensated is diagnosed without
 /// it, the delay left to the candidate, started from it, so that the delay is found,
 /// sized and judged by the search's own rules, not assumed.
-pub fn searched_model(prepared: &Prepared) -> (CalibConfig, Option<f64>) {
+fn searched_model(prepared: &Prepared) -> (CalibConfig, Option<f64>) {
     let mut cfg = prepared.cfg.clone();
     if prepared.learned_with_delay_s.is_some() {
         cfg.initial_delay_s = 0.0;
@@ -52,12 +52,26 @@ pub fn searched_model(prepared: &Prepared) -> (CalibConfig, Option<f64>) {
 /// The learned model the search may learn again where it competes with a candidate
 /// (`diagnose::Options::learned`): the searched model when it was learned from the
 /// recording and adopted; none when it is the user's (the fixed truth) or the start kept.
-pub fn learned_model(prepared: &Prepared, searched: &CalibConfig) -> Option<CalibConfig> {
+fn learned_model(prepared: &Prepared, searched: &CalibConfig) -> Option<CalibConfig> {
     prepared
         .learned
         .as_ref()
         .filter(|l| l.adopted)
         .map(|_| searched.clone())
+}
+
+/// The model the search starts from and the options its learning gives it
+/// (`searched_model`, `learned_model`, and the learning for `Options::relearn`); the
+/// rest of the options at their defaults.
+pub fn search_start(prepared: &Prepared) -> (CalibConfig, Options) {
+    let (cfg, delay_start_s) = searched_model(prepared);
+    let opts = Options {
+        delay_start_s,
+        learned: learned_model(prepared, &cfg),
+        relearn: prepared.learned.clone(),
+        ..Options::default()
+    };
+    (cfg, opts)
 }
 
 /// Runs `flexcal diagnose`.
@@ -67,7 +81,7 @@ pub fn run(a: &Args) -> Result<(), String> {
     progress.phase("preparing the declared model");
     // The declared model: no switches (the search adds the effects).
     let prepared = prepare_config(&rec, &a.rec_dir, a.config.as_deref(), &ModelArgs::default())?;
-    let (cfg, delay_start_s) = searched_model(&prepared);
+    let (cfg, learned) = search_start(&prepared);
     let candidates = if a.candidates.is_empty() {
         Effect::ALL.to_vec()
     } else {
@@ -81,8 +95,7 @@ pub fn run(a: &Args) -> Result<(), String> {
         budget: a.budget,
         alpha: a.alpha,
         holdout_fraction: a.holdout_fraction,
-        delay_start_s,
-        learned: learned_model(&prepared, &cfg),
+        ..learned
     };
     progress.phase(&format!(
         "searching {} candidates (budget {})",
@@ -163,6 +176,9 @@ pub fn run(a: &Args) -> Result<(), String> {
                 t.threshold,
                 report::decision(t, r)
             );
+        }
+        if let Some(line) = report::relearn_line(r) {
+            println!("  round {}: {line}", k + 1);
         }
     }
     for x in &d.dropped {

@@ -98,6 +98,12 @@ pub struct Options {
     /// considered in a round. `None`: the declared model is the truth, nothing is
     /// learned again.
     pub learned: Option<CalibConfig>,
+    /// The learning, when the model was learned from the recording (adopted or not):
+    /// after each adoption the whole model is learned again from its start with the
+    /// adopted effects in the layout (`learn::relearn_with`), and replaces the current
+    /// model where it predicts the held-out part better. `None`: the declared model is
+    /// the truth.
+    pub relearn: Option<crate::learn::Learned>,
 }
 
 /// Candidates per round whose competing learned quantities are learned again, at most
@@ -114,6 +120,7 @@ impl Default for Options {
             holdout_fraction: 0.7,
             delay_start_s: None,
             learned: None,
+            relearn: None,
         }
     }
 }
@@ -249,6 +256,80 @@ pub struct Round {
     pub tests: Vec<CandidateTest>,
     /// The effect added, if any.
     pub added: Option<&'static str>,
+    /// The whole model learned again with the effect added (`Options::relearn`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub relearned: Option<Relearned>,
+    /// Why it could not be learned again.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub relearn_error: Option<String>,
+}
+
+/// The whole model learned again after an adoption (`learn::relearn_with`), and whether
+/// it replaced the model as adopted.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Relearned {
+    /// What was learned: start, value, σ and gain of each quantity.
+    pub values: Vec<crate::learn::search::LearnedValue>,
+    /// Filter runs of the learning.
+    pub evaluations: usize,
+    /// Its wall time (s).
+    pub seconds: f64,
+    /// Wald statistic of the adopted effect's block with the model learned again.
+    pub wald: f64,
+    /// Its final estimate (SI unit of the effect).
+    pub estimate: Vec<f64>,
+    /// Its σ.
+    pub sigma: Vec<f64>,
+    /// Held-out −2 ln L of the model as adopted.
+    pub holdout_adopted: f64,
+    /// Held-out −2 ln L of the model learned again.
+    pub holdout_relearned: f64,
+    /// Whether the model learned again replaced the adopted one: it predicts the
+    /// held-out part better, and the effect stays significant with it.
+    pub kept: bool,
+}
+
+/// The whole model learned again from the learning's start with `current`'s effects in
+/// the layout; kept (returned with its evaluation) when it predicts the held-out part
+/// better than `current` and the adopted `effect` stays significant with it (its block's
+/// Wald statistic above its threshold, its estimate above the floor and plausible; no
+/// likelihood ratio: the two models differ in more than the effect).
+fn relearn(
+    rec: &Recording,
+    from: &crate::learn::Learned,
+    current: &ModelEval,
+    effect: Effect,
+    opts: &Options,
+) -> Result<(Relearned, Option<ModelEval>), String> {
+    let l = crate::learn::relearn_with(rec, from, &current.cfg)?;
+    let again = evaluate::run_model(rec, &l.learned_config)?;
+    let h = evaluate::holdout(rec, &again.cfg, opts.holdout_fraction)?;
+    let (wald, estimate, sigma) = block_figures(&again, effect);
+    let span_s = match (rec.master.first(), rec.master.last()) {
+        (Some(a), Some(b)) => b.t - a.t,
+        _ => 0.0,
+    };
+    let holdout_adopted = current.holdout.as_ref().map_or(f64::NAN, |h| h.neg2ll);
+    let kept = h.neg2ll < holdout_adopted
+        && wald > opts.threshold(effect.states())
+        && above_floor(effect, &estimate, span_s)
+        && plausible(effect, &estimate);
+    let record = Relearned {
+        values: l.values,
+        evaluations: l.evaluations,
+        seconds: l.seconds,
+        wald,
+        estimate,
+        sigma,
+        holdout_adopted,
+        holdout_relearned: h.neg2ll,
+        kept,
+    };
+    let again = kept.then_some(ModelEval {
+        holdout: Some(h),
+        ..again
+    });
+    Ok((record, again))
 }
 
 /// The outcome of a diagnosis.
@@ -295,6 +376,7 @@ fn backward(
     declared: &CalibConfig,
     mut current: ModelEval,
     found: &mut Vec<CandidateTest>,
+    learned: Option<&CalibConfig>,
     opts: &Options,
 ) -> Result<(ModelEval, Vec<Dropped>), String> {
     let mut dropped = Vec::new();
@@ -315,7 +397,7 @@ fn backward(
             // The learned quantities that compete with it found again without it, as
             // they were learned again with it when it was adopted.
             // (Where they cannot be, the set without it is judged as it is.)
-            if let Some(learned) = opts.learned.as_ref() {
+            if let Some(learned) = learned {
                 if let Ok(Some(r)) = crate::learn::refit_competing(rec, &cfg, learned) {
                     cfg = r.cfg;
                 }
@@ -503,6 +585,8 @@ pub fn diagnose(
     };
     let mut rounds = Vec::new();
     let mut found = Vec::new();
+    // The learned model the refits start from: the learning's, then each relearn kept.
+    let mut learned = opts.learned.clone();
     while found.len() < opts.budget {
         let present = current.cfg.augmentation::<f64>()?;
         // The clock drift carries the delay: with it in, the delay is not tried; with the
@@ -651,7 +735,7 @@ pub fn diagnose(
             // likelihood ratio is then between two models each at its own optimum, and
             // the estimate is the joint one (blind lever arm 102, 106: rejected by the
             // structure's size without it; 101: adopted without it 0.50 m off).
-            let refit = match (opts.learned.as_ref(), refits < MAX_REFITS) {
+            let refit = match (learned.as_ref(), refits < MAX_REFITS) {
                 (Some(learned), true) => crate::learn::refit_competing(rec, &run.cfg, learned)
                     .unwrap_or_else(|e| {
                         test.refit_error = Some(e);
@@ -715,6 +799,8 @@ pub fn diagnose(
                 sizes: base_sizes,
                 tests,
                 added: None,
+                relearned: None,
+                relearn_error: None,
             });
             break;
         };
@@ -746,14 +832,37 @@ pub fn diagnose(
             sizes: base_sizes,
             tests,
             added: Some(effect.name()),
+            relearned: None,
+            relearn_error: None,
         });
         current = ModelEval {
             holdout: Some(chosen_holdout),
             ..run
         };
         found.extend(test);
+        // The whole model learned again with what is now adopted (`Options::relearn`).
+        if let Some(from) = opts.relearn.as_ref() {
+            let outcome = relearn(rec, from, &current, *effect, opts);
+            if let Some(round) = rounds.last_mut() {
+                match outcome {
+                    Ok((r, again)) => {
+                        if let Some(again) = again {
+                            if let Some(t) = found.last_mut() {
+                                t.wald = r.wald;
+                                t.estimate = r.estimate.clone();
+                                t.sigma = r.sigma.clone();
+                            }
+                            learned = Some(again.cfg.clone());
+                            current = again;
+                        }
+                        round.relearned = Some(r);
+                    }
+                    Err(e) => round.relearn_error = Some(e),
+                }
+            }
+        }
     }
-    let (after, dropped) = backward(rec, declared, current, &mut found, opts)?;
+    let (after, dropped) = backward(rec, declared, current, &mut found, learned.as_ref(), opts)?;
     Ok(Diagnosis {
         before,
         after,

@@ -432,6 +432,31 @@ pub fn supported_not_adopted(d: &Diagnosis) -> Vec<Value> {
 }
 
 /// The search rounds as recorded, each test with its `decision`.
+/// What a round's relearn (`Round::relearned`) did, in one sentence; `None` when the
+/// round adopted nothing or the model was not learned.
+pub fn relearn_line(r: &Round) -> Option<String> {
+    let added = r.added?;
+    if let Some(e) = r.relearn_error.as_ref() {
+        return Some(format!(
+            "the whole model could not be learned again with {added}: {e}"
+        ));
+    }
+    let x = r.relearned.as_ref()?;
+    Some(format!(
+        "the whole model learned again with {added} ({:.1} s, {} filter runs): held-out -2 ln L {} as adopted, {} learned again; Wald {:.1}; {}",
+        x.seconds,
+        x.evaluations,
+        fmt_g(x.holdout_adopted),
+        fmt_g(x.holdout_relearned),
+        x.wald,
+        if x.kept {
+            "kept (predicts the held-out part better, the effect still significant)"
+        } else {
+            "not kept, the model as adopted stays"
+        }
+    ))
+}
+
 fn rounds_json(d: &Diagnosis) -> Value {
     let mut v = serde_json::to_value(&d.rounds).unwrap_or(Value::Null);
     if let Some(rounds) = v.as_array_mut() {
@@ -620,6 +645,9 @@ pub fn report_md(d: &Diagnosis, rec_label: &str, rec: &Recording, command: &str)
                 t.holdout_likelihood_ratio.map_or("–".to_string(), fmt_g),
                 decision(t, r)
             );
+        }
+        if let Some(line) = relearn_line(r) {
+            let _ = writeln!(s, "\nThen {line}.");
         }
         let _ = writeln!(s);
     }
