@@ -436,9 +436,9 @@ pub fn supported_not_adopted(d: &Diagnosis) -> Vec<Value> {
 /// round adopted nothing or the model was not learned.
 pub fn relearn_line(r: &Round) -> Option<String> {
     let added = r.added?;
-    if let Some(e) = r.relearn_error.as_ref() {
+    if let Some(why) = r.not_relearned.as_ref() {
         return Some(format!(
-            "the whole model could not be learned again with {added}: {e}"
+            "the whole model not learned again with {added}: {why}"
         ));
     }
     let x = r.relearned.as_ref()?;
