@@ -52,12 +52,15 @@ impl<T: Real> PastRates<T> {
         self.rates.clear();
     }
 
-    /// Keeps the rate `w` at `t`, dropping the oldest when full. Where `t` is
-    /// `EPOCH_REACH_S` or more from the epoch (or the first), the epoch moves to `t`
-    /// and the kept rates' `tau` by the same `T` step (once a second at any master rate;
-    /// 64 subtractions).
+    /// Keeps the rate `w` at `t`, dropping the oldest when full. A time not after the
+    /// newest (a master re-stamped, a replay looped) starts the history again, as it
+    /// starts [`super::RateRun`]'s run: the window is then always the newest rates.
+    /// Where `t` is `EPOCH_REACH_S` or more past the epoch, the epoch moves to `t` and
+    /// the kept rates' `tau` by the same `T` step (once a second at any master rate; 64
+    /// subtractions).
     pub(super) fn push(&mut self, t: f64, w: Vector3<T>) {
-        if self.rates.is_empty() {
+        if self.rates.back().is_none_or(|r| t <= r.t) {
+            self.rates.clear();
             self.epoch = t;
         }
         let reach = t - self.epoch;
@@ -107,44 +110,44 @@ impl<T: Real> PastRates<T> {
     pub(super) fn fit(&self, t_msg: f64, noise_var: T) -> Option<RateFit<T>> {
         let t1 = self.rates.back()?.tau;
         let from = t1 - T::of(RATE_WINDOW_S);
-        // The window is the newest rates: counted from the newest, summed from the
-        // oldest as the rates came, over the deque's two slices.
+        // The window is the newest rates (their times increase, `push`), found in the
+        // deque's two slices by bisection and summed from the oldest.
         let (older, newer) = self.rates.as_slices();
-        let in_window = newer.iter().rev().chain(older.iter().rev());
-        let (count, t0) = in_window
-            .take_while(|r| r.tau >= from)
-            .fold((0, t1), |(n, _), r| (n + 1, r.tau));
+        let (older, newer) = (since(older, from), since(newer, from));
+        let t0 = older.first().or(newer.first())?.tau;
+        let count = older.len() + newer.len();
         if count < RATE_MIN || t1 <= t0 {
             return None;
         }
         let half = (t1 - t0) * T::of(0.5);
         let mid = t0 + half;
         let inv_half = T::one() / half;
-        let older = older
-            .get(
-                older
-                    .len()
-                    .saturating_sub(count.saturating_sub(newer.len()))..,
-            )
-            .unwrap_or_default();
-        let newer = newer
-            .get(newer.len().saturating_sub(count)..)
-            .unwrap_or_default();
-        let mut sums = Sums {
-            n: T::of(count as f64),
-            ..Sums::default()
-        };
-        for part in [older, newer] {
-            sums.normal = normal_sums(part, mid, inv_half, sums.normal);
-            sums.rhs = rhs_sums(part, mid, inv_half, sums.rhs);
-        }
-        let coef = sums.solve(noise_var)?;
+        let sums = window_sums([older, newer], mid, inv_half);
+        let factor = Ldl::of(T::of(count as f64), &sums.normal)?;
+        // The cubic and quartic terms shrunk by their noise (`RATE_TERM_SHRINK`, the
+        // rates' white noise `noise_var` through the fit): against a noiseless master the
+        // quartic whole, against a noisy one (20 °/h at 100 Hz) nearly the parabola,
+        // whose slope weighs the newest rates less. The quartic's weights on them carried
+        // their noise, which the flexure states had taken into the innovation, into the
+        // column: a 10 ms delay read as 10.9 ± 0.1 ms (docs/diagnosis.md "Session 14").
+        let kappa = T::of(RATE_TERM_SHRINK) * noise_var;
+        let [inv3, inv4] = factor.inverse_diagonal_34();
+        let var = [kappa * inv3, kappa * inv4];
         let u_msg = (T::of(t_msg - self.epoch) - mid) * inv_half;
         let (p, dp) = legendre(u_msg);
-        let value = coef.transpose() * p;
-        let slope = coef.transpose() * dp * inv_half;
-        let finite = value.iter().chain(slope.iter()).all(|v| v.is_finite());
-        finite.then_some(RateFit { value, slope })
+        let [x0, y0, z0, x1, y1, z1, x2, y2, z2, x3, y3, z3, x4, y4, z4] = sums.rhs;
+        let axis = |b: [T; RATE_TERMS]| {
+            let coef = shrink(factor.solve(b), &var);
+            (dot5(&coef, &p), dot5(&coef, &dp) * inv_half)
+        };
+        let (vx, sx) = axis([x0, x1, x2, x3, x4]);
+        let (vy, sy) = axis([y0, y1, y2, y3, y4]);
+        let (vz, sz) = axis([z0, z1, z2, z3, z4]);
+        let finite = [vx, vy, vz, sx, sy, sz].iter().all(|v| v.is_finite());
+        finite.then(|| RateFit {
+            value: Vector3::new(vx, vy, vz),
+            slope: Vector3::new(sx, sy, sz),
+        })
     }
 }
 
@@ -165,161 +168,355 @@ pub(super) struct RateFit<T: Real> {
     pub(super) slope: Vector3<T>,
 }
 
+/// The rates of `part` (their times increasing) from `from` on.
+fn since<T: Real>(part: &[PastRate<T>], from: T) -> &[PastRate<T>] {
+    part.get(part.partition_point(|r| r.tau < from)..)
+        .unwrap_or_default()
+}
+
 /// The fit's normal matrix and right-hand side summed over the window's rates.
-#[derive(Default)]
 struct Sums<T> {
-    /// The rates' count, the normal matrix's `(0, 0)`.
-    n: T,
-    /// The rest of its lower triangle ([`normal_sums`]).
+    /// The normal matrix's lower triangle of `Σ P_i P_j` but `(0, 0)` (the count), row by
+    /// row: `Σ P_1`, `Σ P_1²`, `Σ P_2`, `Σ P_2 P_1`, `Σ P_2²`, … (`P_0 = 1`).
     normal: [T; 14],
-    /// The right-hand side ([`rhs_sums`]).
+    /// The right-hand side, `Σ P_i ω` for i = 0 … 4, three axes each, row by row.
     rhs: [T; 15],
 }
 
-/// Adds to `s` the window's rates `rates`' terms of the fit's normal matrix, the lower
-/// triangle of `Σ P_i P_j` but `(0, 0)`, row by row: `Σ P_1`, `Σ P_1²`, `Σ P_2`, `Σ P_2
-/// P_1`, `Σ P_2²`, … (`P_0 = 1`), `P_i` at `u = (τ − mid) inv_half`. Each sum in its
-/// own variable, apart from the right-hand side's ([`rhs_sums`]): together they are
-/// more than the FPU's 32 registers, and as nalgebra's outer products (a loop each on
-/// the board) they cost ten times the arithmetic.
+/// The fit's sums over the window's rates `parts` (the oldest first), `P_i` at `u = (τ −
+/// mid) inv_half`: each sum in its own variable, the normal matrix's in one pass and the
+/// right-hand side's in another (together they are more than the FPU's 32 registers; as
+/// nalgebra's outer products, a loop each on the board, they cost ten times the
+/// arithmetic).
 #[inline(never)]
-fn normal_sums<T: Real>(rates: &[PastRate<T>], mid: T, inv_half: T, s: [T; 14]) -> [T; 14] {
+fn window_sums<T: Real>(parts: [&[PastRate<T>]; 2], mid: T, inv_half: T) -> Sums<T> {
     let [mut s10, mut s11, mut s20, mut s21, mut s22, mut s30, mut s31, mut s32, mut s33, mut s40, mut s41, mut s42, mut s43, mut s44] =
-        s;
-    for r in rates {
-        let [p1, p2, p3, p4] = legendre_values((r.tau - mid) * inv_half);
-        s10 += p1;
-        s11 += p1 * p1;
-        s20 += p2;
-        s21 += p2 * p1;
-        s22 += p2 * p2;
-        s30 += p3;
-        s31 += p3 * p1;
-        s32 += p3 * p2;
-        s33 += p3 * p3;
-        s40 += p4;
-        s41 += p4 * p1;
-        s42 += p4 * p2;
-        s43 += p4 * p3;
-        s44 += p4 * p4;
-    }
-    [
-        s10, s11, s20, s21, s22, s30, s31, s32, s33, s40, s41, s42, s43, s44,
-    ]
-}
-
-/// Adds to `s` the window's rates `rates`' terms of the fit's right-hand side, `Σ P_i
-/// ω` for i = 0 … 4, three axes each (as [`normal_sums`]).
-#[inline(never)]
-fn rhs_sums<T: Real>(rates: &[PastRate<T>], mid: T, inv_half: T, s: [T; 15]) -> [T; 15] {
-    let [mut x0, mut y0, mut z0, mut x1, mut y1, mut z1, mut x2, mut y2, mut z2, mut x3, mut y3, mut z3, mut x4, mut y4, mut z4] =
-        s;
-    for r in rates {
-        let [p1, p2, p3, p4] = legendre_values((r.tau - mid) * inv_half);
-        let (x, y, z) = (r.w.x, r.w.y, r.w.z);
-        x0 += x;
-        y0 += y;
-        z0 += z;
-        x1 += p1 * x;
-        y1 += p1 * y;
-        z1 += p1 * z;
-        x2 += p2 * x;
-        y2 += p2 * y;
-        z2 += p2 * z;
-        x3 += p3 * x;
-        y3 += p3 * y;
-        z3 += p3 * z;
-        x4 += p4 * x;
-        y4 += p4 * y;
-        z4 += p4 * z;
-    }
-    [x0, y0, z0, x1, y1, z1, x2, y2, z2, x3, y3, z3, x4, y4, z4]
-}
-
-impl<T: Real> Sums<T> {
-    /// The least-squares coefficients, their cubic and quartic terms shrunk by their
-    /// noise (`RATE_TERM_SHRINK`, the rates' white noise `noise_var` through the fit):
-    /// against a noiseless master the quartic whole, against a noisy one (20 °/h at 100
-    /// Hz) nearly the parabola, whose slope weighs the newest rates less. The quartic's
-    /// weights on them carried their noise, which the flexure states had taken into the
-    /// innovation, into the column: a 10 ms delay read as 10.9 ± 0.1 ms
-    /// (docs/diagnosis.md "Session 14"). `None` if the normal matrix is not positive
-    /// definite.
-    /// A row per Legendre polynomial, a column per axis.
-    fn solve(&self, noise_var: T) -> Option<nalgebra::SMatrix<T, RATE_TERMS, 3>> {
-        let [p1, a11, p2, a21, a22, p3, a31, a32, a33, p4, a41, a42, a43, a44] = self.normal;
-        // The lower triangle, all `Cholesky::new` reads.
-        let z = T::zero();
-        #[rustfmt::skip]
-        let normal = nalgebra::SMatrix::<T, RATE_TERMS, RATE_TERMS>::new(
-            self.n, z, z, z, z,
-            p1, a11, z, z, z,
-            p2, a21, a22, z, z,
-            p3, a31, a32, a33, z,
-            p4, a41, a42, a43, a44,
-        );
-        let [x0, y0, z0, x1, y1, z1, x2, y2, z2, x3, y3, z3, x4, y4, z4] = self.rhs;
-        #[rustfmt::skip]
-        let rhs = nalgebra::SMatrix::<T, RATE_TERMS, 3>::new(
-            x0, y0, z0,
-            x1, y1, z1,
-            x2, y2, z2,
-            x3, y3, z3,
-            x4, y4, z4,
-        );
-        let chol = nalgebra::linalg::Cholesky::new(normal)?;
-        let mut coef = chol.solve(&rhs);
-        // The variances of the cubic and quartic coefficients are `noise_var` times the
-        // diagonal of the inverse normal matrix, from its factor `L` (`N⁻¹ = L⁻ᵀ L⁻¹`):
-        // `1 / L₄₄²` and `(1 + (L₄₃ / L₄₄)²) / L₃₃²`.
-        let l = chol.l_dirty();
-        let (l33, l43, l44) = (*l.get((3, 3))?, *l.get((4, 3))?, *l.get((4, 4))?);
-        let q = l43 / l44;
-        let inverse_diagonal = [(T::one() + q * q) / (l33 * l33), T::one() / (l44 * l44)];
-        for (k, d) in (3..RATE_TERMS).zip(inverse_diagonal) {
-            let var = T::of(RATE_TERM_SHRINK) * noise_var * d;
-            for c in coef.row_mut(k).iter_mut() {
-                let c2 = *c * *c;
-                *c = if c2 > var {
-                    *c * (T::one() - var / c2)
-                } else {
-                    T::zero()
-                };
-            }
+        [T::zero(); 14];
+    for part in parts {
+        for r in part {
+            let [p1, p2, p3, p4] = legendre_values((r.tau - mid) * inv_half);
+            s10 += p1;
+            s11 += p1 * p1;
+            s20 += p2;
+            s21 += p2 * p1;
+            s22 += p2 * p2;
+            s30 += p3;
+            s31 += p3 * p1;
+            s32 += p3 * p2;
+            s33 += p3 * p3;
+            s40 += p4;
+            s41 += p4 * p1;
+            s42 += p4 * p2;
+            s43 += p4 * p3;
+            s44 += p4 * p4;
         }
-        Some(coef)
+    }
+    let [mut x0, mut y0, mut z0, mut x1, mut y1, mut z1, mut x2, mut y2, mut z2, mut x3, mut y3, mut z3, mut x4, mut y4, mut z4] =
+        [T::zero(); 15];
+    for part in parts {
+        for r in part {
+            let [p1, p2, p3, p4] = legendre_values((r.tau - mid) * inv_half);
+            let (x, y, z) = (r.w.x, r.w.y, r.w.z);
+            x0 += x;
+            y0 += y;
+            z0 += z;
+            x1 += p1 * x;
+            y1 += p1 * y;
+            z1 += p1 * z;
+            x2 += p2 * x;
+            y2 += p2 * y;
+            z2 += p2 * z;
+            x3 += p3 * x;
+            y3 += p3 * y;
+            z3 += p3 * z;
+            x4 += p4 * x;
+            y4 += p4 * y;
+            z4 += p4 * z;
+        }
+    }
+    Sums {
+        normal: [
+            s10, s11, s20, s21, s22, s30, s31, s32, s33, s40, s41, s42, s43, s44,
+        ],
+        rhs: [x0, y0, z0, x1, y1, z1, x2, y2, z2, x3, y3, z3, x4, y4, z4],
     }
 }
 
-/// The Legendre polynomials `P_1 … P_4` at `u` (`P_0 = 1`).
+/// The fit's normal matrix as `L D Lᵀ` (`L` unit lower triangular, `D` diagonal), in
+/// straight-line code: nalgebra's Cholesky and its solves, loops over a 5 × 5 matrix,
+/// cost the board ≈ 1.5k instructions an update, with five software square roots.
+struct Ldl<T> {
+    /// `L` below its diagonal, row by row: `l10`, `l20`, `l21`, `l30`, … `l43`.
+    l: [T; 10],
+    /// `1 / D`.
+    inv_d: [T; RATE_TERMS],
+}
+
+impl<T: Real> Ldl<T> {
+    /// The factor of the normal matrix whose `(0, 0)` is `n` and the rest of whose lower
+    /// triangle is `normal` ([`Sums::normal`]); `None` unless every pivot is positive
+    /// and finite (not positive definite).
+    fn of(n: T, normal: &[T; 14]) -> Option<Self> {
+        let [n10, n11, n20, n21, n22, n30, n31, n32, n33, n40, n41, n42, n43, n44] = *normal;
+        let pivot = |d: T| (d > T::zero() && d.is_finite()).then(|| T::one() / d);
+        // Column by column; `e_ij = l_ij d_j`.
+        let i0 = pivot(n)?;
+        let (l10, l20, l30, l40) = (n10 * i0, n20 * i0, n30 * i0, n40 * i0);
+        let d1 = n11 - l10 * n10;
+        let i1 = pivot(d1)?;
+        let (e21, e31, e41) = (n21 - l20 * n10, n31 - l30 * n10, n41 - l40 * n10);
+        let (l21, l31, l41) = (e21 * i1, e31 * i1, e41 * i1);
+        let d2 = n22 - l20 * n20 - l21 * e21;
+        let i2 = pivot(d2)?;
+        let e32 = n32 - l30 * n20 - l31 * e21;
+        let e42 = n42 - l40 * n20 - l41 * e21;
+        let (l32, l42) = (e32 * i2, e42 * i2);
+        let d3 = n33 - l30 * n30 - l31 * e31 - l32 * e32;
+        let i3 = pivot(d3)?;
+        let e43 = n43 - l40 * n30 - l41 * e31 - l42 * e32;
+        let l43 = e43 * i3;
+        let d4 = n44 - l40 * n40 - l41 * e41 - l42 * e42 - l43 * e43;
+        let i4 = pivot(d4)?;
+        Some(Self {
+            l: [l10, l20, l21, l30, l31, l32, l40, l41, l42, l43],
+            inv_d: [i0, i1, i2, i3, i4],
+        })
+    }
+
+    /// The solution of `N x = b`.
+    fn solve(&self, b: [T; RATE_TERMS]) -> [T; RATE_TERMS] {
+        let [l10, l20, l21, l30, l31, l32, l40, l41, l42, l43] = self.l;
+        let [i0, i1, i2, i3, i4] = self.inv_d;
+        let [b0, b1, b2, b3, b4] = b;
+        let y1 = b1 - l10 * b0;
+        let y2 = b2 - l20 * b0 - l21 * y1;
+        let y3 = b3 - l30 * b0 - l31 * y1 - l32 * y2;
+        let y4 = b4 - l40 * b0 - l41 * y1 - l42 * y2 - l43 * y3;
+        let x4 = y4 * i4;
+        let x3 = y3 * i3 - l43 * x4;
+        let x2 = y2 * i2 - l32 * x3 - l42 * x4;
+        let x1 = y1 * i1 - l21 * x2 - l31 * x3 - l41 * x4;
+        let x0 = b0 * i0 - l10 * x1 - l20 * x2 - l30 * x3 - l40 * x4;
+        [x0, x1, x2, x3, x4]
+    }
+
+    /// The inverse normal matrix's `(3, 3)` and `(4, 4)`, the cubic and quartic
+    /// coefficients' variances per unit noise variance (`N⁻¹ = L⁻ᵀ D⁻¹ L⁻¹`, `L⁻¹`'s
+    /// last two rows `[…, 1, 0]` and `[…, −l43, 1]`).
+    fn inverse_diagonal_34(&self) -> [T; 2] {
+        let [.., l43] = self.l;
+        let [.., i3, i4] = self.inv_d;
+        [i3 + l43 * l43 * i4, i4]
+    }
+}
+
+/// The coefficients `c` with their cubic and quartic terms shrunk to `c (1 − var / c²)`,
+/// zero where `c² ≤ var` (`var`: their variances times `RATE_TERM_SHRINK`).
+fn shrink<T: Real>(c: [T; RATE_TERMS], var: &[T; 2]) -> [T; RATE_TERMS] {
+    let [c0, c1, c2, c3, c4] = c;
+    let term = |c: T, var: T| {
+        let c2 = c * c;
+        if c2 > var {
+            c * (T::one() - var / c2)
+        } else {
+            T::zero()
+        }
+    };
+    [c0, c1, c2, term(c3, var[0]), term(c4, var[1])]
+}
+
+/// `Σ a_i b_i`, in order.
+fn dot5<T: Real>(a: &[T; RATE_TERMS], b: &[T; RATE_TERMS]) -> T {
+    let ([a0, a1, a2, a3, a4], [b0, b1, b2, b3, b4]) = (*a, *b);
+    a0 * b0 + a1 * b1 + a2 * b2 + a3 * b3 + a4 * b4
+}
+
+/// The Legendre polynomials `P_1 … P_4` at `u` (`P_0 = 1`), each in `u²` with its
+/// coefficients divided out (exact binary fractions), a multiply-add each.
 fn legendre_values<T: Real>(u: T) -> [T; 4] {
     let c = |x: f64| T::of(x);
     let u2 = u * u;
     [
         u,
-        (c(3.0) * u2 - T::one()) * c(0.5),
-        (c(5.0) * u2 - c(3.0)) * u * c(0.5),
-        ((c(35.0) * u2 - c(30.0)) * u2 + c(3.0)) * c(0.125),
+        c(1.5) * u2 - c(0.5),
+        (c(2.5) * u2 - c(1.5)) * u,
+        (c(4.375) * u2 - c(3.75)) * u2 + c(0.375),
     ]
 }
 
 /// The Legendre polynomials `P_0 … P_4` at `u` and their derivatives in `u`.
-fn legendre<T: Real>(
-    u: T,
-) -> (
-    nalgebra::SVector<T, RATE_TERMS>,
-    nalgebra::SVector<T, RATE_TERMS>,
-) {
+fn legendre<T: Real>(u: T) -> ([T; RATE_TERMS], [T; RATE_TERMS]) {
     let c = |x: f64| T::of(x);
     let [p1, p2, p3, p4] = legendre_values(u);
     let u2 = u * u;
-    let p = nalgebra::SVector::<T, RATE_TERMS>::new(T::one(), p1, p2, p3, p4);
-    let dp = nalgebra::SVector::<T, RATE_TERMS>::new(
+    let p = [T::one(), p1, p2, p3, p4];
+    let dp = [
         T::zero(),
         T::one(),
         c(3.0) * u,
         (c(15.0) * u2 - c(3.0)) * c(0.5),
         (c(35.0) * u2 - c(15.0)) * u * c(0.5),
-    );
+    ];
     (p, dp)
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+
+    use super::*;
+
+    /// The fit as main formed it before `PastRates` (`master_rate_fit`, issue12-s16's
+    /// review): `f64` times, each rate's difference from the window's middle in `f64`,
+    /// nalgebra's Cholesky and solves (the shrinkage's variances by two more).
+    fn direct_fit<T: Real>(
+        rates: &Deque<(f64, Vector3<T>), RATE_HISTORY>,
+        t_msg: f64,
+        noise_var: T,
+    ) -> Option<(Vector3<T>, Vector3<T>)> {
+        let &(t1, _) = rates.back()?;
+        let from = t1 - RATE_WINDOW_S;
+        let window = rates.iter().filter(|r| r.0 >= from);
+        let t0 = window.clone().next()?.0;
+        if window.count() < RATE_MIN || t1 <= t0 {
+            return None;
+        }
+        let (t_mid, half) = (0.5 * (t0 + t1), 0.5 * (t1 - t0));
+        let mut normal = nalgebra::SMatrix::<T, RATE_TERMS, RATE_TERMS>::zeros();
+        let mut rhs = nalgebra::SMatrix::<T, RATE_TERMS, 3>::zeros();
+        let exact = |u: T| {
+            // Main's polynomials, as written there.
+            let c = |x: f64| T::of(x);
+            let u2 = u * u;
+            nalgebra::SVector::<T, RATE_TERMS>::new(
+                T::one(),
+                u,
+                (c(3.0) * u2 - T::one()) * c(0.5),
+                (c(5.0) * u2 - c(3.0)) * u * c(0.5),
+                ((c(35.0) * u2 - c(30.0)) * u2 + c(3.0)) * c(0.125),
+            )
+        };
+        for &(t, w) in rates.iter().filter(|r| r.0 >= t0) {
+            let p = exact(T::of((t - t_mid) / half));
+            normal += p * p.transpose();
+            rhs += p * w.transpose();
+        }
+        let chol = nalgebra::linalg::Cholesky::new(normal)?;
+        let mut coef = chol.solve(&rhs);
+        for k in 3..RATE_TERMS {
+            let mut unit = nalgebra::SVector::<T, RATE_TERMS>::zeros();
+            unit[k] = T::one();
+            let var = T::of(RATE_TERM_SHRINK) * noise_var * chol.solve(&unit)[k];
+            for axis in 0..3 {
+                let c = coef[(k, axis)];
+                let c2 = c * c;
+                coef[(k, axis)] = if c2 > var {
+                    c * (T::one() - var / c2)
+                } else {
+                    T::zero()
+                };
+            }
+        }
+        let u = T::of((t_msg - t_mid) / half);
+        let (p, dp) = (exact(u), nalgebra::SVector::from(legendre(u).1));
+        Some((coef.transpose() * p, coef.transpose() * dp / T::of(half)))
+    }
+
+    /// 24 000 master stamps over ≈ 760 s from a day into the run (each `f64` a few 10⁻¹²
+    /// s coarse): 100 Hz, jittered 100 Hz (±30 % of the period), 20 Hz and 10 Hz, gaps
+    /// of 0.3 s and 3 s, a stamp that steps back 2 s (the history starts again), and
+    /// a ship's rates (1.14 rad/s, a 7 s roll and a 13 s pitch) with a little noise.
+    fn stamps() -> impl Iterator<Item = (f64, Vector3<f64>)> {
+        let mut t = 86_400.0;
+        let mut k = 0_u64;
+        let mut noise = 0x2545_f491_4f6c_dd1d_u64;
+        core::iter::from_fn(move || {
+            k += 1;
+            let segment = (k / 4000) % 6;
+            let period = match segment {
+                0 => 0.01,
+                1 => 0.01 * (1.0 + 0.3 * libm::sin(k as f64 * 1.7)),
+                2 => 0.05,
+                3 => 0.1,
+                _ => 0.01,
+            };
+            t += period;
+            match k % 4000 {
+                1500 if segment == 4 => t += 0.3,
+                2500 if segment == 4 => t += 3.0,
+                3000 if segment == 5 => t -= 2.0,
+                _ => {}
+            }
+            let mut n = || {
+                noise ^= noise << 13;
+                noise ^= noise >> 7;
+                noise ^= noise << 17;
+                (noise >> 11) as f64 / (1_u64 << 53) as f64 - 0.5
+            };
+            let (roll, pitch) = (
+                core::f64::consts::TAU / 7.0 * t,
+                core::f64::consts::TAU / 13.0 * t,
+            );
+            let w = Vector3::new(
+                1.14 * libm::sin(roll) + 1e-3 * n(),
+                0.4 * libm::cos(pitch) + 1e-3 * n(),
+                0.05 * libm::sin(roll + pitch) + 1e-3 * n(),
+            );
+            (k <= 24_000).then_some((t, w))
+        })
+    }
+
+    /// The largest differences from the direct fit in `f64` over [`stamps`] (the message
+    /// 10 ms after each rate), value (rad/s) and slope (rad/s²): of `PastRates::fit` in
+    /// `T`, and of the direct fit in `T`; and the count of fits.
+    fn largest_differences<T: Real>(noise_var: f64) -> ([f64; 2], [f64; 2], usize) {
+        let mut rates = PastRates::<T>::new();
+        let mut reference = Deque::<(f64, Vector3<T>), RATE_HISTORY>::new();
+        let mut exact = Deque::<(f64, Vector3<f64>), RATE_HISTORY>::new();
+        let (mut new_err, mut direct_err, mut fits) = ([0.0_f64; 2], [0.0_f64; 2], 0);
+        for (t, w) in stamps() {
+            rates.push(t, w.map(T::of));
+            if exact.back().is_some_and(|r| t <= r.0) {
+                reference.clear();
+                exact.clear();
+            }
+            if exact.is_full() {
+                reference.pop_front();
+                exact.pop_front();
+            }
+            reference.push_back((t, w.map(T::of))).unwrap();
+            exact.push_back((t, w)).unwrap();
+            let t_msg = t + 0.01;
+            let new = rates.fit(t_msg, T::of(noise_var));
+            let direct = direct_fit(&reference, t_msg, T::of(noise_var));
+            let truth = direct_fit(&exact, t_msg, noise_var);
+            assert_eq!(new.is_some(), truth.is_some(), "at {t}");
+            if let (Some(new), Some(direct), Some((value, slope))) = (new, direct, truth) {
+                fits += 1;
+                let err = |v: Vector3<T>, s: Vector3<T>, e: &mut [f64; 2]| {
+                    e[0] = e[0].max((v.map(T::to_f64) - value).amax());
+                    e[1] = e[1].max((s.map(T::to_f64) - slope).amax());
+                };
+                err(new.value, new.slope, &mut new_err);
+                err(direct.0, direct.1, &mut direct_err);
+            }
+        }
+        (new_err, direct_err, fits)
+    }
+
+    #[test]
+    fn fit_agrees_with_the_direct_fit_over_a_long_irregular_run() {
+        // The lever arm's rate noise of the layouts (20 °/h at 100 Hz is ≈ 1e-4 rad/s
+        // a rate) and a noisy master's, which shrinks the cubic and quartic terms.
+        for noise_var in [1e-8, 1e-6] {
+            let (new, _, fits) = largest_differences::<f64>(noise_var);
+            assert!(fits > 20_000, "{fits}");
+            std::println!("noise {noise_var:e}: f64 {new:?} (rad/s, rad/s²)");
+            assert!(new[0] < 1e-10 && new[1] < 1e-9);
+            // In `f32`, no farther from the `f64` fit than the direct fit in `f32`.
+            let (new, direct, _) = largest_differences::<f32>(noise_var);
+            std::println!("noise {noise_var:e}: f32 {new:?}, direct in f32 {direct:?}");
+            assert!(new[0] < 2.0 * direct[0] && new[1] < 2.0 * direct[1]);
+        }
+    }
 }
