@@ -13,11 +13,17 @@ use crate::real::Real;
 use heapless::Deque;
 use nalgebra::Vector3;
 
-/// How far (s) the newest rate's time may be from the epoch before the epoch moves to
-/// it: the window's `T` times are then within 1 s + `RATE_WINDOW_S` of zero, in `f32`
-/// within 6·10⁻⁸ s of their `f64` difference (the rate's own `f64` time as the master
-/// stamped it, at 10⁵ s, is within 7·10⁻¹² s).
+/// How far (s) the newest rate's time may be past the epoch before the epoch moves to
+/// it: the window's `T` times are then within 1 s of zero, in `f32` within 6·10⁻⁸ s of
+/// their `f64` difference (the rate's own `f64` time as the master stamped it, at 10⁵ s,
+/// is within 7·10⁻¹² s).
 const EPOCH_REACH_S: f64 = 1.0;
+
+/// How far (relative) a spacing of the master's stamps may be from the first of its run
+/// for the run to be evenly spaced (`PastRates::even`): a window of 64 such rates is then
+/// within 6.3·10⁻⁸ s of its even grid at 100 Hz, the `f32` times' own rounding (`f64`
+/// stamps at 10⁵ s are 1.5·10⁻¹¹ s coarse, 1.5·10⁻⁹ of a 100 Hz spacing).
+const EVEN_TOLERANCE: f64 = 1e-7;
 
 /// One kept master rate.
 #[derive(Clone, Copy, Debug)]
@@ -38,6 +44,19 @@ pub(super) struct PastRates<T: Real> {
     rates: Deque<PastRate<T>, RATE_HISTORY>,
     /// The time (s) the rates' `tau` count from.
     epoch: f64,
+    /// How many of the newest rates are within `RATE_WINDOW_S` of the newest: the fit's
+    /// window.
+    window: usize,
+    /// How many of the newest rates are evenly spaced: each spacing within
+    /// `EVEN_TOLERANCE` of `spacing`.
+    even: usize,
+    /// The first spacing of the even run (s).
+    spacing: f64,
+    /// The normal matrix's factor for `n` evenly spaced rates, `(n, factor)`, formed on
+    /// the first evenly spaced window of `n` rates: in `u`, over the window's span, the
+    /// normal matrix of evenly spaced rates depends on their count only, so it holds for
+    /// every later such window of `n` rates, whatever their spacing. 68 B in `f32`.
+    grid: Option<(usize, Ldl<T>)>,
 }
 
 impl<T: Real> PastRates<T> {
@@ -45,11 +64,17 @@ impl<T: Real> PastRates<T> {
         Self {
             rates: Deque::new(),
             epoch: 0.0,
+            window: 0,
+            even: 0,
+            spacing: 0.0,
+            grid: None,
         }
     }
 
     pub(super) fn clear(&mut self) {
         self.rates.clear();
+        self.window = 0;
+        self.even = 0;
     }
 
     /// Keeps the rate `w` at `t`, dropping the oldest when full. A time not after the
@@ -57,14 +82,30 @@ impl<T: Real> PastRates<T> {
     /// starts [`super::RateRun`]'s run: the window is then always the newest rates.
     /// Where `t` is `EPOCH_REACH_S` or more past the epoch, the epoch moves to `t` and
     /// the kept rates' `tau` by the same `T` step (once a second at any master rate; 64
-    /// subtractions).
+    /// subtractions). Then the window gains the rate and loses those now too old, and
+    /// where its rates are evenly spaced and their count is new (the window filling at
+    /// the start or after a gap, a master that changes its rate), the normal matrix's
+    /// factor for their count is formed (≈ 2k instructions on the board).
     pub(super) fn push(&mut self, t: f64, w: Vector3<T>) {
-        if self.rates.back().is_none_or(|r| t <= r.t) {
-            self.rates.clear();
-            self.epoch = t;
+        match self.rates.back() {
+            Some(r) if t > r.t => {
+                let spacing = t - r.t;
+                if self.even >= 2 && (spacing - self.spacing).abs() <= EVEN_TOLERANCE * self.spacing
+                {
+                    self.even += 1;
+                } else {
+                    self.even = 2;
+                    self.spacing = spacing;
+                }
+            }
+            _ => {
+                self.clear();
+                self.epoch = t;
+                self.even = 1;
+            }
         }
         let reach = t - self.epoch;
-        if reach.abs() >= EPOCH_REACH_S {
+        if reach >= EPOCH_REACH_S {
             let step = T::of(reach);
             for r in self.rates.iter_mut() {
                 r.tau -= step;
@@ -76,6 +117,53 @@ impl<T: Real> PastRates<T> {
         }
         let tau = T::of(t - self.epoch);
         let _ = self.rates.push_back(PastRate { t, tau, w });
+        self.even = self.even.min(self.rates.len());
+        // The window gains the new rate and loses its oldest ones before `from` (the
+        // times increase).
+        let from = tau - T::of(RATE_WINDOW_S);
+        self.window = (self.window + 1).min(self.rates.len());
+        while self.oldest_in_window().is_some_and(|r| r.tau < from) {
+            self.window -= 1;
+        }
+        let n = self.window;
+        if n >= RATE_MIN && n <= self.even && self.grid.is_none_or(|g| g.0 != n) {
+            self.grid = self.span().and_then(|(mid, inv_half)| {
+                let normal = normal_sums(self.window_parts(), mid, inv_half);
+                Ldl::of(T::of(n as f64), &normal).map(|f| (n, f))
+            });
+        }
+    }
+
+    /// The window's oldest rate.
+    fn oldest_in_window(&self) -> Option<&PastRate<T>> {
+        let [older, newer] = self.window_parts();
+        older.first().or(newer.first())
+    }
+
+    /// The window's middle and the reciprocal of its half-span (`u = (τ − mid) inv_half`
+    /// runs from −1 to 1 over it), if it holds `RATE_MIN` rates and spans a time.
+    fn span(&self) -> Option<(T, T)> {
+        let [older, newer] = self.window_parts();
+        let t0 = older.first().or(newer.first())?.tau;
+        let t1 = newer.last().or(older.last())?.tau;
+        (self.window >= RATE_MIN && t1 > t0).then(|| {
+            let half = (t1 - t0) * T::of(0.5);
+            (t0 + half, T::one() / half)
+        })
+    }
+
+    /// The window's rates in the deque's two slices, the oldest first.
+    fn window_parts(&self) -> [&[PastRate<T>]; 2] {
+        let (older, newer) = self.rates.as_slices();
+        let in_older = self.window.saturating_sub(newer.len());
+        [
+            older
+                .get(older.len().saturating_sub(in_older)..)
+                .unwrap_or_default(),
+            newer
+                .get(newer.len().saturating_sub(self.window)..)
+                .unwrap_or_default(),
+        ]
     }
 
     /// The master's angular acceleration from its two previous rates (rad/s², master
@@ -107,23 +195,21 @@ impl<T: Real> PastRates<T> {
     /// it (monomials would need `f64`, software arithmetic on the board). Everything in
     /// `T` from the rates' `tau`; the window's membership is `tau ≥ τ₁ − RATE_WINDOW_S`
     /// in `T` (a rate within 10⁻⁷ s of the window's edge may fall either side in `f32`).
+    /// Of evenly spaced rates (`EVEN_TOLERANCE`) only the right-hand side is summed, the
+    /// normal matrix's factor kept from the first window of their count. The test below
+    /// holds it to main's direct fit over rates of every kind.
     pub(super) fn fit(&self, t_msg: f64, noise_var: T) -> Option<RateFit<T>> {
-        let t1 = self.rates.back()?.tau;
-        let from = t1 - T::of(RATE_WINDOW_S);
-        // The window is the newest rates (their times increase, `push`), found in the
-        // deque's two slices by bisection and summed from the oldest.
-        let (older, newer) = self.rates.as_slices();
-        let (older, newer) = (since(older, from), since(newer, from));
-        let t0 = older.first().or(newer.first())?.tau;
-        let count = older.len() + newer.len();
-        if count < RATE_MIN || t1 <= t0 {
-            return None;
-        }
-        let half = (t1 - t0) * T::of(0.5);
-        let mid = t0 + half;
-        let inv_half = T::one() / half;
-        let sums = window_sums([older, newer], mid, inv_half);
-        let factor = Ldl::of(T::of(count as f64), &sums.normal)?;
+        let (mid, inv_half) = self.span()?;
+        let parts = self.window_parts();
+        // Evenly spaced rates: the normal matrix's factor `push` formed on the first
+        // window of their count (in `u` it is the same for any spacing).
+        let count = self.window;
+        let grid = self.grid.filter(|g| count <= self.even && g.0 == count);
+        let factor = match grid {
+            Some((_, factor)) => factor,
+            None => Ldl::of(T::of(count as f64), &normal_sums(parts, mid, inv_half))?,
+        };
+        let rhs = rhs_sums(parts, mid, inv_half);
         // The cubic and quartic terms shrunk by their noise (`RATE_TERM_SHRINK`, the
         // rates' white noise `noise_var` through the fit): against a noiseless master the
         // quartic whole, against a noisy one (20 °/h at 100 Hz) nearly the parabola,
@@ -135,7 +221,7 @@ impl<T: Real> PastRates<T> {
         let var = [kappa * inv3, kappa * inv4];
         let u_msg = (T::of(t_msg - self.epoch) - mid) * inv_half;
         let (p, dp) = legendre(u_msg);
-        let [x0, y0, z0, x1, y1, z1, x2, y2, z2, x3, y3, z3, x4, y4, z4] = sums.rhs;
+        let [x0, y0, z0, x1, y1, z1, x2, y2, z2, x3, y3, z3, x4, y4, z4] = rhs;
         let axis = |b: [T; RATE_TERMS]| {
             let coef = shrink(factor.solve(b), &var);
             (dot5(&coef, &p), dot5(&coef, &dp) * inv_half)
@@ -168,28 +254,14 @@ pub(super) struct RateFit<T: Real> {
     pub(super) slope: Vector3<T>,
 }
 
-/// The rates of `part` (their times increasing) from `from` on.
-fn since<T: Real>(part: &[PastRate<T>], from: T) -> &[PastRate<T>] {
-    part.get(part.partition_point(|r| r.tau < from)..)
-        .unwrap_or_default()
-}
-
-/// The fit's normal matrix and right-hand side summed over the window's rates.
-struct Sums<T> {
-    /// The normal matrix's lower triangle of `Σ P_i P_j` but `(0, 0)` (the count), row by
-    /// row: `Σ P_1`, `Σ P_1²`, `Σ P_2`, `Σ P_2 P_1`, `Σ P_2²`, … (`P_0 = 1`).
-    normal: [T; 14],
-    /// The right-hand side, `Σ P_i ω` for i = 0 … 4, three axes each, row by row.
-    rhs: [T; 15],
-}
-
-/// The fit's sums over the window's rates `parts` (the oldest first), `P_i` at `u = (τ −
-/// mid) inv_half`: each sum in its own variable, the normal matrix's in one pass and the
-/// right-hand side's in another (together they are more than the FPU's 32 registers; as
-/// nalgebra's outer products, a loop each on the board, they cost ten times the
-/// arithmetic).
+/// The fit's normal matrix, the lower triangle of `Σ P_i P_j` but `(0, 0)` (the count),
+/// row by row: `Σ P_1`, `Σ P_1²`, `Σ P_2`, `Σ P_2 P_1`, `Σ P_2²`, … (`P_0 = 1`), over
+/// the window's rates `parts` (the oldest first), `P_i` at `u = (τ − mid) inv_half`.
+/// Each sum in its own variable, apart from the right-hand side's ([`rhs_sums`]):
+/// together they are more than the FPU's 32 registers, and as nalgebra's outer products
+/// (a loop each on the board) they cost ten times the arithmetic.
 #[inline(never)]
-fn window_sums<T: Real>(parts: [&[PastRate<T>]; 2], mid: T, inv_half: T) -> Sums<T> {
+fn normal_sums<T: Real>(parts: [&[PastRate<T>]; 2], mid: T, inv_half: T) -> [T; 14] {
     let [mut s10, mut s11, mut s20, mut s21, mut s22, mut s30, mut s31, mut s32, mut s33, mut s40, mut s41, mut s42, mut s43, mut s44] =
         [T::zero(); 14];
     for part in parts {
@@ -211,6 +283,15 @@ fn window_sums<T: Real>(parts: [&[PastRate<T>]; 2], mid: T, inv_half: T) -> Sums
             s44 += p4 * p4;
         }
     }
+    [
+        s10, s11, s20, s21, s22, s30, s31, s32, s33, s40, s41, s42, s43, s44,
+    ]
+}
+
+/// The fit's right-hand side, `Σ P_i ω` for i = 0 … 4, three axes each, row by row (as
+/// [`normal_sums`]).
+#[inline(never)]
+fn rhs_sums<T: Real>(parts: [&[PastRate<T>]; 2], mid: T, inv_half: T) -> [T; 15] {
     let [mut x0, mut y0, mut z0, mut x1, mut y1, mut z1, mut x2, mut y2, mut z2, mut x3, mut y3, mut z3, mut x4, mut y4, mut z4] =
         [T::zero(); 15];
     for part in parts {
@@ -234,17 +315,13 @@ fn window_sums<T: Real>(parts: [&[PastRate<T>]; 2], mid: T, inv_half: T) -> Sums
             z4 += p4 * z;
         }
     }
-    Sums {
-        normal: [
-            s10, s11, s20, s21, s22, s30, s31, s32, s33, s40, s41, s42, s43, s44,
-        ],
-        rhs: [x0, y0, z0, x1, y1, z1, x2, y2, z2, x3, y3, z3, x4, y4, z4],
-    }
+    [x0, y0, z0, x1, y1, z1, x2, y2, z2, x3, y3, z3, x4, y4, z4]
 }
 
 /// The fit's normal matrix as `L D Lᵀ` (`L` unit lower triangular, `D` diagonal), in
 /// straight-line code: nalgebra's Cholesky and its solves, loops over a 5 × 5 matrix,
 /// cost the board ≈ 1.5k instructions an update, with five software square roots.
+#[derive(Clone, Copy, Debug)]
 struct Ldl<T> {
     /// `L` below its diagonal, row by row: `l10`, `l20`, `l21`, `l30`, … `l43`.
     l: [T; 10],
@@ -254,8 +331,9 @@ struct Ldl<T> {
 
 impl<T: Real> Ldl<T> {
     /// The factor of the normal matrix whose `(0, 0)` is `n` and the rest of whose lower
-    /// triangle is `normal` ([`Sums::normal`]); `None` unless every pivot is positive
+    /// triangle is `normal` ([`normal_sums`]); `None` unless every pivot is positive
     /// and finite (not positive definite).
+    #[inline(never)]
     fn of(n: T, normal: &[T; 14]) -> Option<Self> {
         let [n10, n11, n20, n21, n22, n30, n31, n32, n33, n40, n41, n42, n43, n44] = *normal;
         let pivot = |d: T| (d > T::zero() && d.is_finite()).then(|| T::one() / d);
@@ -468,12 +546,14 @@ mod tests {
 
     /// The largest differences from the direct fit in `f64` over [`stamps`] (the message
     /// 10 ms after each rate), value (rad/s) and slope (rad/s²): of `PastRates::fit` in
-    /// `T`, and of the direct fit in `T`; and the count of fits.
-    fn largest_differences<T: Real>(noise_var: f64) -> ([f64; 2], [f64; 2], usize) {
+    /// `T`, and of the direct fit in `T`; the count of fits, and of those on the even
+    /// grid.
+    fn largest_differences<T: Real>(noise_var: f64) -> ([f64; 2], [f64; 2], [usize; 2]) {
         let mut rates = PastRates::<T>::new();
         let mut reference = Deque::<(f64, Vector3<T>), RATE_HISTORY>::new();
         let mut exact = Deque::<(f64, Vector3<f64>), RATE_HISTORY>::new();
         let (mut new_err, mut direct_err, mut fits) = ([0.0_f64; 2], [0.0_f64; 2], 0);
+        let mut even = 0;
         for (t, w) in stamps() {
             rates.push(t, w.map(T::of));
             if exact.back().is_some_and(|r| t <= r.0) {
@@ -488,6 +568,8 @@ mod tests {
             exact.push_back((t, w)).unwrap();
             let t_msg = t + 0.01;
             let new = rates.fit(t_msg, T::of(noise_var));
+            let on_grid = rates.grid.as_ref().is_some_and(|g| g.0 == rates.window);
+            even += usize::from(new.is_some() && on_grid && rates.window <= rates.even);
             let direct = direct_fit(&reference, t_msg, T::of(noise_var));
             let truth = direct_fit(&exact, t_msg, noise_var);
             assert_eq!(new.is_some(), truth.is_some(), "at {t}");
@@ -501,7 +583,7 @@ mod tests {
                 err(direct.0, direct.1, &mut direct_err);
             }
         }
-        (new_err, direct_err, fits)
+        (new_err, direct_err, [fits, even])
     }
 
     #[test]
@@ -509,8 +591,9 @@ mod tests {
         // The lever arm's rate noise of the layouts (20 °/h at 100 Hz is ≈ 1e-4 rad/s
         // a rate) and a noisy master's, which shrinks the cubic and quartic terms.
         for noise_var in [1e-8, 1e-6] {
-            let (new, _, fits) = largest_differences::<f64>(noise_var);
-            assert!(fits > 20_000, "{fits}");
+            let (new, _, [fits, even]) = largest_differences::<f64>(noise_var);
+            // The jittered rates and those after a gap and a step back not on the grid.
+            assert!(fits > 20_000 && even > fits * 3 / 4 && even < fits - 3000);
             std::println!("noise {noise_var:e}: f64 {new:?} (rad/s, rad/s²)");
             assert!(new[0] < 1e-10 && new[1] < 1e-9);
             // In `f32`, no farther from the `f64` fit than the direct fit in `f32`.
