@@ -105,17 +105,19 @@ impl<T: Real> PastRates<T> {
             }
         }
         let reach = t - self.epoch;
-        if reach >= EPOCH_REACH_S {
+        let tau = if reach >= EPOCH_REACH_S {
             let step = T::of(reach);
             for r in self.rates.iter_mut() {
                 r.tau -= step;
             }
             self.epoch = t;
-        }
+            T::zero()
+        } else {
+            T::of(reach)
+        };
         if self.rates.is_full() {
             let _ = self.rates.pop_front();
         }
-        let tau = T::of(t - self.epoch);
         let _ = self.rates.push_back(PastRate { t, tau, w });
         self.even = self.even.min(self.rates.len());
         // The window gains the new rate and loses its oldest ones before `from` (the
