@@ -71,6 +71,8 @@ impl<T: Real> PastRates<T> {
         }
     }
 
+    /// Forgets the rates (the engine's reset; a stamp not after the newest). The factor
+    /// kept for a count of evenly spaced rates stays good: it depends on the count only.
     pub(super) fn clear(&mut self) {
         self.rates.clear();
         self.window = 0;
