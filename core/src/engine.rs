@@ -22,6 +22,9 @@ use crate::strapdown::{Increments, NavState, Strapdown};
 use crate::tilt_bias;
 use heapless::{Deque, Vec};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use rates::{PastRates, RateFit};
+
+mod rates;
 
 /// Slave snapshots kept for time alignment: at 200 Hz, 0.64 s of master latency.
 pub const ALIGN_DEPTH: usize = 128;
@@ -362,9 +365,9 @@ pub struct Engine<T: Real, const S: usize = N> {
     /// Whether `cfg`'s layout carries a lever-arm block ([`layout_has_lever_arm`]), kept
     /// with `cfg` as `has_delay`.
     has_lever_arm: bool,
-    /// The master's last angular rates `(t, ω_ib^bm)` (for the delay's rate column and
-    /// the lever-arm columns' instrument).
-    past_master_rates: Deque<(f64, Vector3<T>), RATE_HISTORY>,
+    /// The master's last angular rates (for the delay's rate column, the lever-arm
+    /// columns' instrument and the g-sensitivity's rate column).
+    past_master_rates: PastRates<T>,
     /// Where the master's rates run without a gap ([`RateRun`]).
     rate_run: RateRun,
     /// The master's own acceleration from its past velocities (the delay's velocity column).
@@ -567,7 +570,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             delay_s: 0.0,
             delay_rate: 0.0,
             clock_t0: None,
-            past_master_rates: Deque::new(),
+            past_master_rates: PastRates::new(),
             rate_run: RateRun::new(),
             master_trend: VelocityTrend::new(),
             g_force_bs: None,
@@ -1264,10 +1267,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             if let Some(w) = msg.w_ib_bm {
                 self.rate_run.push(msg.t);
                 if keep || self.has_lever_arm {
-                    if self.past_master_rates.is_full() {
-                        let _ = self.past_master_rates.pop_front();
-                    }
-                    let _ = self.past_master_rates.push_back((msg.t, w));
+                    self.past_master_rates.push(msg.t, w);
                 }
                 if keep {
                     self.master_trend.push(msg.t, &msg.v_n);
@@ -1664,7 +1664,7 @@ struct Nominal<'a, T: Real> {
     accel_bias: Vector3<T>,
     misalignment: Vector3<T>,
     prev_master: Option<PrevMaster<T>>,
-    past_master_rates: &'a Deque<(f64, Vector3<T>), RATE_HISTORY>,
+    past_master_rates: &'a PastRates<T>,
     master_trend: &'a VelocityTrend<T>,
     /// Whether the layout carries the master delay (`Engine::has_delay`).
     has_delay: bool,
@@ -1731,7 +1731,7 @@ fn measure<T: Real>(
         // none of the slave side's model error).
         let sigma = e.cfg.measurement_noise.lever_arm_rate_radps;
         let noise_var = sigma * sigma;
-        master_rate_fit(e.past_master_rates, msg.t, noise_var)
+        e.past_master_rates.fit(msg.t, noise_var)
     } else {
         None
     };
@@ -1856,110 +1856,6 @@ fn master_rate_wrt_earth<T: Real>(
     }
 }
 
-/// The master's rate and angular acceleration at `t_msg` from its previous rates.
-#[derive(Clone, Copy, Debug)]
-struct RateFit<T: Real> {
-    /// The fitted rate at `t_msg` (rad/s, master body): the lever-arm columns'
-    /// instrument. The rate of the message at `t_msg` carries noise that is also in its
-    /// own velocity residual (through the arm, `C [n×] r0`); a column built from it is
-    /// correlated with that residual's noise, and on a long arm, where the flexure's rate
-    /// can take most of the lever arm's velocity, that errors-in-variables bias was
-    /// −3.7 cm on a 12 m arm with a 184 °/h master. A parabola through the three previous
-    /// rates has 19 times their noise variance and read a 0.43 m arm there up to 2.5 %
-    /// short (attenuated); a line through two is 1 % large at 1 rad/s and a 10 Hz master
-    /// (docs/diagnosis.md "Session 16").
-    value: Vector3<T>,
-    /// The fitted angular acceleration at `t_msg` (rad/s², master body): the delay's.
-    slope: Vector3<T>,
-}
-
-/// The master's rate and angular acceleration at `t_msg`, the stamp of the message being
-/// matched (master body): the value and derivative there of a least-squares quartic
-/// through the kept rates of the last `RATE_WINDOW_S` (a straight line's slope would
-/// belong to the window's middle; a parabola's is 6 % large and 16 ms late at a
-/// ship's 1.14 rad/s, and the attitude and rate rows together must see the delay as
-/// the derivative of one column in the other). The window is a time, not a count: at 10 Hz the
-/// 64 rates spanned 6.4 s, longer than a ship's roll period, and the parabola's
-/// slope was no angular acceleration (a constant 17 ms delay, blind draw 102 with a
-/// 10 Hz master: 13.75 ± 0.04 ms with the rate channel, 17.00 ± 0.07 without it).
-/// `None` with fewer than `RATE_MIN` rates in the window (asked only once [`RateRun`]
-/// covers it).
-fn master_rate_fit<T: Real>(
-    rates: &Deque<(f64, Vector3<T>), RATE_HISTORY>,
-    t_msg: f64,
-    noise_var: T,
-) -> Option<RateFit<T>> {
-    let (t0, t1) = rate_window(rates)?;
-    // Least squares in Legendre polynomials of u = (t − t_mid) / half over the window's
-    // span [t0, t1]: their normal matrix is nearly diagonal, so single precision solves
-    // it (monomials would need `f64`, software arithmetic on the board); only the times'
-    // differences are formed in `f64`.
-    let (t_mid, half) = (0.5 * (t0 + t1), 0.5 * (t1 - t0));
-    // The normal matrix's lower triangle (all `Cholesky::new` reads) and the right-hand
-    // side summed element by element (nalgebra's outer products, a loop each on the
-    // board, cost ~1k instructions a rate), the times scaled by one reciprocal (a
-    // software `f64` division a rate).
-    let mut normal = nalgebra::SMatrix::<T, RATE_TERMS, RATE_TERMS>::zeros();
-    let mut rhs = nalgebra::SMatrix::<T, RATE_TERMS, 3>::zeros();
-    let inv_half = 1.0 / half;
-    for &(t, w) in rates.iter().filter(|r| r.0 >= t0) {
-        let (p, _) = legendre(T::of((t - t_mid) * inv_half));
-        for i in 0..RATE_TERMS {
-            let pi = vget(&p, i);
-            for j in 0..i + 1 {
-                if let Some(e) = normal.get_mut((i, j)) {
-                    *e += pi * vget(&p, j);
-                }
-            }
-            for k in 0..3 {
-                if let Some(e) = rhs.get_mut((i, k)) {
-                    *e += pi * vget(&w, k);
-                }
-            }
-        }
-    }
-    let chol = nalgebra::linalg::Cholesky::new(normal)?;
-    let mut coef = chol.solve(&rhs);
-    // The cubic and quartic terms shrunk by their noise (`RATE_TERM_SHRINK`, the rates'
-    // white noise `noise_var` through the fit): against a noiseless master the
-    // quartic whole, against a noisy one (20 °/h at 100 Hz) nearly the parabola, whose
-    // slope weighs the newest rates less. The quartic's weights on them carried their
-    // noise, which the flexure states had taken into the innovation, into the column: a
-    // 10 ms delay read as 10.9 ± 0.1 ms (docs/diagnosis.md "Session 14").
-    for k in 3..RATE_TERMS {
-        let mut unit = nalgebra::SVector::<T, RATE_TERMS>::zeros();
-        if let Some(e) = unit.get_mut(k) {
-            *e = T::one();
-        }
-        let var = T::of(RATE_TERM_SHRINK) * noise_var * vget(&chol.solve(&unit), k);
-        for axis in 0..3 {
-            if let Some(c) = coef.get_mut((k, axis)) {
-                let c2 = *c * *c;
-                *c = if c2 > var {
-                    *c * (T::one() - var / c2)
-                } else {
-                    T::zero()
-                };
-            }
-        }
-    }
-    let (p, dp) = legendre(T::of((t_msg - t_mid) / half));
-    let value = coef.transpose() * p;
-    let slope = coef.transpose() * dp / T::of(half);
-    let finite = value.iter().chain(slope.iter()).all(|v| v.is_finite());
-    finite.then_some(RateFit { value, slope })
-}
-
-/// The first and last times of the master's past rates within `RATE_WINDOW_S` before
-/// the newest, if at least `RATE_MIN` (the gaps are [`RateRun`]'s).
-fn rate_window<T: Real>(rates: &Deque<(f64, Vector3<T>), RATE_HISTORY>) -> Option<(f64, f64)> {
-    let &(t1, _) = rates.back()?;
-    let from = t1 - RATE_WINDOW_S;
-    let mut window = rates.iter().filter(|r| r.0 >= from);
-    let t0 = window.next()?.0;
-    (window.count() + 1 >= RATE_MIN && t1 > t0).then_some((t0, t1))
-}
-
 /// Where the master's rates have run without a gap: a gap is a spacing longer than 2.5
 /// of the run's shortest (the master's own period, whatever the filter's: compared with
 /// the filter period, a 20 Hz master under a 100 Hz filter never formed the delay's
@@ -2012,49 +1908,9 @@ impl RateRun {
     }
 }
 
-/// The Legendre polynomials `P_0 … P_4` at `u` and their derivatives in `u`.
-fn legendre<T: Real>(
-    u: T,
-) -> (
-    nalgebra::SVector<T, RATE_TERMS>,
-    nalgebra::SVector<T, RATE_TERMS>,
-) {
-    let c = |x: f64| T::of(x);
-    let u2 = u * u;
-    let p = nalgebra::SVector::<T, RATE_TERMS>::new(
-        T::one(),
-        u,
-        (c(3.0) * u2 - T::one()) * c(0.5),
-        (c(5.0) * u2 - c(3.0)) * u * c(0.5),
-        ((c(35.0) * u2 - c(30.0)) * u2 + c(3.0)) * c(0.125),
-    );
-    let dp = nalgebra::SVector::<T, RATE_TERMS>::new(
-        T::zero(),
-        T::one(),
-        c(3.0) * u,
-        (c(15.0) * u2 - c(3.0)) * c(0.5),
-        (c(35.0) * u2 - c(15.0)) * u * c(0.5),
-    );
-    (p, dp)
-}
-
-/// The master's angular acceleration from its two previous rates (rad/s², master body):
-/// their difference over their interval, which belongs to its middle (1.5 master periods
-/// before the message). `None` with fewer than two, or a gap of more than 2.5 filter
-/// periods `period_s` between them.
-fn master_rate_difference<T: Real>(
-    rates: &Deque<(f64, Vector3<T>), RATE_HISTORY>,
-    period_s: f64,
-) -> Option<Vector3<T>> {
-    let mut newest = rates.iter().rev();
-    let (&(t1, w1), &(t0, w0)) = (newest.next()?, newest.next()?);
-    let dt = t1 - t0;
-    (dt > 0.0 && dt <= 2.5 * period_s).then(|| (w1 - w0) / T::of(dt))
-}
-
 /// The columns' ingredients of the augmented blocks for the message `msg` matched at
 /// slave time `t_s`; `rate`: the slave's rate there, `fit`: the master's rate and
-/// angular acceleration at the message from its previous rates ([`master_rate_fit`],
+/// angular acceleration at the message from its previous rates ([`PastRates::fit`],
 /// `None` without a delay or a lever-arm block in the layout; its slope read only with
 /// a delay, its rate only with a lever-arm block), `here`: the Earth model at the
 /// master's position,
@@ -2152,7 +2008,8 @@ fn signature<T: Real>(
                     c_bm_n,
                     &w_nb_bm,
                     w_eb_bm,
-                    &master_rate_difference(e.past_master_rates, e.cfg.filter_period_s)
+                    &e.past_master_rates
+                        .difference(e.cfg.filter_period_s)
                         .unwrap_or_else(Vector3::zeros),
                     &e.cfg.lever_arm_m,
                 ),
@@ -2168,7 +2025,7 @@ fn signature<T: Real>(
         _ => f_bs,
     };
     // The lever-arm columns' rate: the instrument where the master's past rates give it
-    // (`master_rate_fit`), as a rate relative to the Earth by the current message's
+    // (`PastRates::fit`), as a rate relative to the Earth by the current message's
     // Earth part.
     let lever_rate = match (msg.w_ib_bm, fit.filter(|_| e.has_lever_arm)) {
         (Some(w_ib), Some(f)) => Some(vec3(|i| {
