@@ -293,23 +293,21 @@ pub struct Relearned {
 /// The whole model learned again from the learning's start with `current`'s effects in
 /// the layout; kept (returned with its evaluation) when it predicts the held-out part
 /// better than `current` and the adopted `effect` stays significant with it (its block's
-/// Wald statistic above its threshold, its estimate above the floor and plausible; no
-/// likelihood ratio: the two models differ in more than the effect).
+/// Wald statistic above its threshold, its estimate above the floor over the recording's
+/// `span_s` and plausible; no likelihood ratio: the two models differ in more than the
+/// effect).
 fn relearn(
     rec: &Recording,
     from: &crate::learn::Learned,
     current: &ModelEval,
     effect: Effect,
+    span_s: f64,
     opts: &Options,
 ) -> Result<(Relearned, Option<ModelEval>), String> {
     let l = crate::learn::relearn_with(rec, from, &current.cfg)?;
     let again = evaluate::run_model(rec, &l.learned_config)?;
     let h = evaluate::holdout(rec, &again.cfg, opts.holdout_fraction)?;
     let (wald, estimate, sigma) = block_figures(&again, effect);
-    let span_s = match (rec.master.first(), rec.master.last()) {
-        (Some(a), Some(b)) => b.t - a.t,
-        _ => 0.0,
-    };
     let holdout_adopted = current.holdout.as_ref().map_or(f64::NAN, |h| h.neg2ll);
     let kept = h.neg2ll < holdout_adopted
         && wald > opts.threshold(effect.states())
@@ -910,7 +908,7 @@ pub fn diagnose(
                 );
             }
         } else if let Some(from) = opts.relearn.as_ref() {
-            let outcome = relearn(rec, from, &current, *effect, opts);
+            let outcome = relearn(rec, from, &current, *effect, span_s, opts);
             if let Some(round) = rounds.last_mut() {
                 match outcome {
                     Ok((r, again)) => {

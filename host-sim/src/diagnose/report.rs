@@ -431,7 +431,6 @@ pub fn supported_not_adopted(d: &Diagnosis) -> Vec<Value> {
         .collect()
 }
 
-/// The search rounds as recorded, each test with its `decision`.
 /// What a round's relearn (`Round::relearned`) did, in one sentence; `None` when the
 /// round adopted nothing or the model was not learned.
 pub fn relearn_line(r: &Round) -> Option<String> {
@@ -457,6 +456,7 @@ pub fn relearn_line(r: &Round) -> Option<String> {
     ))
 }
 
+/// The search rounds as recorded, each test with its `decision`.
 fn rounds_json(d: &Diagnosis) -> Value {
     let mut v = serde_json::to_value(&d.rounds).unwrap_or(Value::Null);
     if let Some(rounds) = v.as_array_mut() {

@@ -418,15 +418,11 @@ pub fn relearn_with(
     from: &Learned,
     layout: &CalibConfig,
 ) -> Result<Learned, String> {
-    let learners = [
-        Effect::MasterAttitudeError.name(),
-        Effect::MasterVelocityError.name(),
-    ];
     let mut start = from.start.clone();
     start.effects = layout
         .effects
         .iter()
-        .filter(|e| !learners.contains(&e.as_str()))
+        .filter(|e| !Effect::MASTER_ERRORS.iter().any(|m| m.name() == e.as_str()))
         .cloned()
         .collect();
     start.initial_delay_s = layout.initial_delay_s;
