@@ -296,6 +296,15 @@ pub fn decision(t: &CandidateTest, round: &Round) -> String {
         }
         return format!("not significant: {}", why.join("; "));
     }
+    let relearned_adopted = round
+        .relearned_candidate
+        .as_ref()
+        .filter(|c| c.effect == t.effect)
+        .and_then(|c| c.relearned.as_ref())
+        .is_some_and(|x| x.kept);
+    if relearned_adopted && round.added == Some(t.effect) {
+        return "adopted once the whole model was learned again with it (none adopted as the model stood)".into();
+    }
     if let Some(r) = &t.refit {
         let note = refit_note(r);
         let stands = r.significant && r.holdout_likelihood_ratio > 0.0;
@@ -431,9 +440,12 @@ pub fn supported_not_adopted(d: &Diagnosis) -> Vec<Value> {
         .collect()
 }
 
-/// What a round's relearn (`Round::relearned`) did, in one sentence; `None` when the
-/// round adopted nothing or the model was not learned.
+/// What a round's relearn (`Round::relearned`, or `Round::relearned_candidate`) did, in
+/// one sentence; `None` when the model was not learned again in the round.
 pub fn relearn_line(r: &Round) -> Option<String> {
+    if let Some(c) = r.relearned_candidate.as_ref() {
+        return Some(relearned_candidate_line(c));
+    }
     let added = r.added?;
     if let Some(why) = r.not_relearned.as_ref() {
         return Some(format!(
@@ -445,7 +457,7 @@ pub fn relearn_line(r: &Round) -> Option<String> {
         "the whole model learned again with {added} ({:.1} s, {} filter runs): held-out -2 ln L {} as adopted, {} learned again; Wald {:.1}; {}",
         x.seconds,
         x.evaluations,
-        fmt_g(x.holdout_adopted),
+        fmt_g(x.holdout_replaced),
         fmt_g(x.holdout_relearned),
         x.wald,
         if x.kept {
@@ -454,6 +466,32 @@ pub fn relearn_line(r: &Round) -> Option<String> {
             "not kept, the model as adopted stays"
         }
     ))
+}
+
+/// What judging a candidate on the whole model learned again with it did, in one sentence.
+fn relearned_candidate_line(c: &crate::diagnose::RelearnedCandidate) -> String {
+    let effect = c.effect;
+    let Some(x) = c.relearned.as_ref() else {
+        return format!(
+            "none adopted as the model stood; the whole model could not be learned again with {effect}: {}",
+            c.error.as_deref().unwrap_or("no reason given")
+        );
+    };
+    format!(
+        "none adopted as the model stood; the whole model learned again with {effect} ({:.1} s, {} filter runs), judged with a master delay of {:.1} ms: held-out -2 ln L {} without it, {} learned again with it; Wald {:.1}, likelihood ratio {:.1}; {}",
+        x.seconds,
+        x.evaluations,
+        x.delay_judged_s * 1e3,
+        fmt_g(x.holdout_replaced),
+        fmt_g(x.holdout_relearned),
+        x.wald,
+        x.likelihood_ratio,
+        if x.kept {
+            "adopted (predicts the held-out part better, significant)"
+        } else {
+            "not adopted"
+        }
+    )
 }
 
 /// The search rounds as recorded, each test with its `decision`.

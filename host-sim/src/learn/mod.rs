@@ -413,6 +413,14 @@ pub fn refit_competing(
 ///
 /// The smooth master errors are the learner's own blocks: left out of the start, learned
 /// again (they are in `layout` when the first model carried them).
+///
+/// The master's delay: where `layout` carries a clock effect, learned from the delay it
+/// starts at; else from the learning's own (`from.start`: the delay found before the
+/// filter compensated, or none), as the first model was learned, and the model returned
+/// (`learned_config`, `config`) then carries `layout`'s delay, so that it is judged in
+/// the search's terms (a model learned with a delay compensated is searched without it,
+/// `cmd::diagnose`). Learned without the compensation, the two-effect draw 103's
+/// 49.6 ms delay would go into the quantities the arm is judged with.
 pub fn relearn_with(
     rec: &Recording,
     from: &Learned,
@@ -425,14 +433,23 @@ pub fn relearn_with(
         .filter(|e| !Effect::MASTER_ERRORS.iter().any(|m| m.name() == e.as_str()))
         .cloned()
         .collect();
-    start.initial_delay_s = layout.initial_delay_s;
-    learn(
+    let clock_in_layout = layout
+        .effects
+        .iter()
+        .any(|e| Effect::from_name(e).is_some_and(Effect::is_clock));
+    if clock_in_layout {
+        start.initial_delay_s = layout.initial_delay_s;
+    }
+    let mut l = learn(
         rec,
         &start,
         &from.start_origin,
         from.increments,
         &LearnOptions::default(),
-    )
+    )?;
+    l.learned_config.initial_delay_s = layout.initial_delay_s;
+    l.config.initial_delay_s = layout.initial_delay_s;
+    Ok(l)
 }
 
 /// What [`refit_competing`] learned again.
