@@ -1911,8 +1911,10 @@ fn sweep<T: Real>(
             }
             _ => [T::zero(); 3],
         };
-        for (x, b) in x.iter_mut().zip(b) {
-            *x += step * b;
+        if let ([x0, x1, x2], [b0, b1, b2]) = (x, b) {
+            *x0 += step * b0;
+            *x1 += step * b1;
+            *x2 += step * b2;
         }
     }
     // The last one or two rows (n not a multiple of three): a pair as the triples, or one,
