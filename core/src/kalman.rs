@@ -1291,7 +1291,14 @@ impl<T: Real, const N: usize> Kalman<T, N> {
 
     /// Standard deviation of state `i` (physical units).
     pub fn sigma(&self, i: usize) -> T {
-        self.cov(i, i).max(T::zero()).sqrt_fast()
+        // `cov(i, i)`'s arithmetic (`P_s(a, a) · s_a · s_a`) without its two lookups and
+        // its test for the diagonal (a call per reported σ).
+        let a = self.internal(i);
+        let var = self
+            .scale
+            .get(a)
+            .map_or(T::zero(), |&s| self.scaled_diag(a) * s * s);
+        var.max(T::zero()).sqrt_fast()
     }
 
     /// Scaled covariance (dimensionless; what the numerics act on), formed from the
