@@ -886,6 +886,93 @@ fn axpy_lanes<T: Real>(dst: &mut [T], f: &[T; LANES], src: &[T]) {
     }
 }
 
+/// [`axpy_lanes`] with two sources: `dst[e LANES + q] += f[q] · s[e]`, then
+/// `+= g[q] · t[e]` (each element's two terms in that order, as two passes add them),
+/// over the shortest; `s` and `t` read once for the six lanes, each lane's element loaded
+/// and stored once for both.
+#[inline(always)]
+fn axpy_lanes2<T: Real>(dst: &mut [T], (f, s): (&[T; LANES], &[T]), (g, t): (&[T; LANES], &[T])) {
+    let [f0, f1, f2, f3, f4, f5] = *f;
+    let [g0, g1, g2, g3, g4, g5] = *g;
+    for ((d, &x), &y) in dst.chunks_exact_mut(LANES).zip(s).zip(t) {
+        if let [d0, d1, d2, d3, d4, d5] = d {
+            *d0 = *d0 + f0 * x + g0 * y;
+            *d1 = *d1 + f1 * x + g1 * y;
+            *d2 = *d2 + f2 * x + g2 * y;
+            *d3 = *d3 + f3 * x + g3 * y;
+            *d4 = *d4 + f4 * x + g4 * y;
+            *d5 = *d5 + f5 * x + g5 * y;
+        }
+    }
+}
+
+/// `LANES` rows of `W_1 = Φ_s U` that share their columns `cols` (the caller's index;
+/// `pos` its internal positions), held column by column in `flat` (zero, `LANES × n`; see
+/// [`axpy_lanes`]): for each column `k` at `a`, the rows' factors `Φ(r, k) s_a / s_r`
+/// (`vals` the rows of Φ, `inv` their `1 / s_r`) times U's row `a` from its diagonal
+/// (`u` row-major `n × n`), and `Φ x`'s terms. Two columns a pass where two come: each
+/// element gets the first one's term and then the second's, as two passes give it (the
+/// elements from the later diagonal on in one pass, [`axpy_lanes2`], those before it from
+/// the earlier row alone). Returns the rows' first column (internal) and `Φ x`. Out of
+/// line: one copy for the board's layouts.
+#[inline(never)]
+fn lanes_group<T: Real>(
+    (flat, u, n): (&mut [T], &[T], usize),
+    (cols, pos): (&[u8], &[u8]),
+    (sc, xs): (&[T], &[T]),
+    ([v0, v1, v2, v3, v4, v5], [i0, i1, i2, i3, i4, i5]): ([&[T]; LANES], [T; LANES]),
+) -> (u8, [T; LANES]) {
+    let at = |v: &[T], i: usize| v.get(i).copied().unwrap_or_else(T::zero);
+    let (mut lo, mut xn) = (n as u8, [T::zero(); LANES]);
+    let mut held: Option<(usize, [T; LANES])> = None;
+    for &k in cols {
+        let k = usize::from(k);
+        let a = pos.get(k).map_or(n, |&a| usize::from(a));
+        lo = lo.min(a as u8);
+        let (sa, xa) = (at(sc, a), at(xs, a));
+        let f = [
+            at(v0, k) * sa * i0,
+            at(v1, k) * sa * i1,
+            at(v2, k) * sa * i2,
+            at(v3, k) * sa * i3,
+            at(v4, k) * sa * i4,
+            at(v5, k) * sa * i5,
+        ];
+        let [x0, x1, x2, x3, x4, x5] = &mut xn;
+        let [f0, f1, f2, f3, f4, f5] = f;
+        *x0 += f0 * xa;
+        *x1 += f1 * xa;
+        *x2 += f2 * xa;
+        *x3 += f3 * xa;
+        *x4 += f4 * xa;
+        *x5 += f5 * xa;
+        let Some((a0, f0)) = held.take() else {
+            held = Some((a, f));
+            continue;
+        };
+        let m = a0.max(a);
+        let (ae, fe) = if a0 < a { (a0, &f0) } else { (a, &f) };
+        if let (Some(dst), Some(src)) = (
+            flat.get_mut(ae * LANES..m * LANES),
+            u.get(ae * n + ae..ae * n + m),
+        ) {
+            axpy_lanes(dst, fe, src);
+        }
+        if let (Some(dst), Some(s), Some(t)) = (
+            flat.get_mut(m * LANES..),
+            u.get(a0 * n + m..(a0 + 1) * n),
+            u.get(a * n + m..(a + 1) * n),
+        ) {
+            axpy_lanes2(dst, (&f0, s), (&f, t));
+        }
+    }
+    if let Some((a, f)) = held {
+        let src = u.get(a * n + a..(a + 1) * n).unwrap_or(&[]);
+        axpy_lanes(flat.get_mut(a * LANES..).unwrap_or(&mut []), &f, src);
+    }
+    (lo, xn)
+}
+
 /// Puts the factors into the order `state_at` (the state at each new position; `pos` its
 /// inverse, `n` of each) if `U` stays upper triangular in it (no `U(i, j) ≠ 0` with
 /// `pos i > pos j`): `u` (column-major `n × n`, entries above the diagonal) and each of
@@ -1204,7 +1291,14 @@ impl<T: Real, const N: usize> Kalman<T, N> {
 
     /// Standard deviation of state `i` (physical units).
     pub fn sigma(&self, i: usize) -> T {
-        self.cov(i, i).max(T::zero()).sqrt_fast()
+        // `cov(i, i)`'s arithmetic (`P_s(a, a) · s_a · s_a`) without its two lookups and
+        // its test for the diagonal (a call per reported σ).
+        let a = self.internal(i);
+        let var = self
+            .scale
+            .get(a)
+            .map_or(T::zero(), |&s| self.scaled_diag(a) * s * s);
+        var.max(T::zero()).sqrt_fast()
     }
 
     /// Scaled covariance (dimensionless; what the numerics act on), formed from the
@@ -1501,31 +1595,13 @@ impl<T: Real, const N: usize> Kalman<T, N> {
                 (run, active.get_mut(r..r + LANES), vals)
             {
                 let flat = rows.as_flattened_mut();
-                let [i0, i1, i2, i3, i4, i5] = core::array::from_fn(|q| row_of(r + q).0);
-                let (mut lo, mut xn) = (N as u8, [T::zero(); LANES]);
-                for &k in cols0 {
-                    let (k, a) = (usize::from(k), internal(usize::from(k)));
-                    lo = lo.min(a as u8);
-                    let (sa, xa) = (at(sc, a), at(xs, a));
-                    let f = [
-                        at(v0, k) * sa * i0,
-                        at(v1, k) * sa * i1,
-                        at(v2, k) * sa * i2,
-                        at(v3, k) * sa * i3,
-                        at(v4, k) * sa * i4,
-                        at(v5, k) * sa * i5,
-                    ];
-                    let [x0, x1, x2, x3, x4, x5] = &mut xn;
-                    let [f0, f1, f2, f3, f4, f5] = f;
-                    *x0 += f0 * xa;
-                    *x1 += f1 * xa;
-                    *x2 += f2 * xa;
-                    *x3 += f3 * xa;
-                    *x4 += f4 * xa;
-                    *x5 += f5 * xa;
-                    let src = u.get(a * N + a..(a + 1) * N).unwrap_or(&[]);
-                    axpy_lanes(flat.get_mut(a * LANES..).unwrap_or(&mut []), &f, src);
-                }
+                let inv6 = core::array::from_fn(|q| row_of(r + q).0);
+                let (lo, xn) = lanes_group(
+                    (flat, u, N),
+                    (cols0, pos.as_slice()),
+                    (sc, xs),
+                    ([v0, v1, v2, v3, v4, v5], inv6),
+                );
                 for &x in &xn {
                     check += x;
                 }
@@ -1911,8 +1987,10 @@ fn sweep<T: Real>(
             }
             _ => [T::zero(); 3],
         };
-        for (x, b) in x.iter_mut().zip(b) {
-            *x += step * b;
+        if let ([x0, x1, x2], [b0, b1, b2]) = (x, b) {
+            *x0 += step * b0;
+            *x1 += step * b1;
+            *x2 += step * b2;
         }
     }
     // The last one or two rows (n not a multiple of three): a pair as the triples, or one,

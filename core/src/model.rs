@@ -198,9 +198,13 @@ pub fn transition_into<T: Real, const S: usize>(
 ) {
     let mut ft = dynamics::<T, S>(m, aug);
     // Element by element over the storage, each `F(i, j) · t` as nalgebra's `ft *= t`
-    // formed it, which its iterator cost the board ≈ 8 instructions an element.
-    for e in ft.as_mut_slice() {
-        *e *= t;
+    // formed it, which its iterator cost the board ≈ 8 instructions an element; a column
+    // (`DYN` elements) a turn, written out: a loop over the elements took 7 instructions
+    // an element (indexed loads and stores), the column ≈ 3.5.
+    for c in ft.as_mut_slice().chunks_exact_mut(DYN) {
+        if let [a, b, c, d, e, f] = c {
+            (*a, *b, *c, *d, *e, *f) = (*a * t, *b * t, *c * t, *d * t, *e * t, *f * t);
+        }
     }
     // Columns of F t's rows that are not zero (δv and ψ's own always listed).
     let mut cols = [0usize; S];
@@ -237,6 +241,44 @@ pub fn transition_into<T: Real, const S: usize>(
     }
 }
 
+/// Column `j` of `left · F t` (see [`powers`]): `left` the left factor's first `DYN`
+/// columns. Inlined into both of [`powers`]' products (as a closure it was called, ≈ 20
+/// instructions a column; one loop over both products with one copy of it: ≈ 0.5k
+/// instructions a time update more).
+#[inline(always)]
+fn times_ft<T: Real>(ft: &[T], left: &[[T; DYN]; DYN], j: usize) -> [T; DYN] {
+    let mut acc = [T::zero(); DYN];
+    // Written out over the six rows and the six terms: the size-optimized image does
+    // not unroll, and the loops cost three times their multiply-adds (the same
+    // arithmetic, element by element, k ascending). (A column out of range, never,
+    // leaves the zeros.) A zero `F t(k, j)` is skipped: its terms `l · 0` are zeros,
+    // and adding a zero to `acc` leaves it as it is (`acc` starts at +0 and a sum is
+    // −0 only of two −0, so it is never −0); most of F's columns have one to three
+    // non-zeros among the six rows (the biases' identity and attitude matrix, the
+    // augmented columns).
+    let term = |acc: &mut [T; DYN], lk: &[T; DYN], fkj: T| {
+        if fkj != T::zero() {
+            let ([a0, a1, a2, a3, a4, a5], [l0, l1, l2, l3, l4, l5]) = (acc, lk);
+            *a0 += *l0 * fkj;
+            *a1 += *l1 * fkj;
+            *a2 += *l2 * fkj;
+            *a3 += *l3 * fkj;
+            *a4 += *l4 * fkj;
+            *a5 += *l5 * fkj;
+        }
+    };
+    let col = ft.get(j * DYN..j * DYN + DYN);
+    if let (Some(&[c0, c1, c2, c3, c4, c5]), [k0, k1, k2, k3, k4, k5]) = (col, left) {
+        term(&mut acc, k0, c0);
+        term(&mut acc, k1, c1);
+        term(&mut acc, k2, c2);
+        term(&mut acc, k3, c3);
+        term(&mut acc, k4, c4);
+        term(&mut acc, k5, c5);
+    }
+    acc
+}
+
 /// `(F t)²` into `f2` and `(F t)³` into `f3` on the columns `cols` of `F t` (`ft`; each
 /// `DYN` rows, column-major; `cols` ascending, the first `DYN` among them). Only F's first
 /// `DYN` rows are not zero, so column j of a product is Σ_k (column k of the left
@@ -254,40 +296,16 @@ fn powers<T: Real>(ft: &[T], f2: &mut [T], f3: &mut [T], cols: &[usize]) {
             .unwrap_or([T::zero(); DYN])
     };
     let first = |m: &[T]| -> [[T; DYN]; DYN] { core::array::from_fn(|k| column(m, k)) };
-    let times_ft = |left: &[[T; DYN]; DYN], j: usize| -> [T; DYN] {
-        let mut acc = [T::zero(); DYN];
-        let col = ft.get(j * DYN..j * DYN + DYN).unwrap_or(&[]);
-        // Written out over the six rows: the size-optimized image does not unroll, and the
-        // loop cost three times its multiply-adds (the same arithmetic, element by element).
-        // (A column out of range, never, leaves the zeros.) A zero `F t(k, j)` is skipped:
-        // its terms `l · 0` are zeros, and adding a zero to `acc` leaves it as it is (`acc`
-        // starts at +0 and a sum is −0 only of two −0, so it is never −0); most of F's
-        // columns have one to three non-zeros among the six rows (the biases' identity and
-        // attitude matrix, the augmented columns).
-        for (lk, &fkj) in left.iter().zip(col) {
-            if fkj == T::zero() {
-                continue;
-            }
-            let ([a0, a1, a2, a3, a4, a5], [l0, l1, l2, l3, l4, l5]) = (&mut acc, lk);
-            *a0 += *l0 * fkj;
-            *a1 += *l1 * fkj;
-            *a2 += *l2 * fkj;
-            *a3 += *l3 * fkj;
-            *a4 += *l4 * fkj;
-            *a5 += *l5 * fkj;
-        }
-        acc
-    };
     let ft_cols = first(ft);
     for &j in cols {
-        let c = times_ft(&ft_cols, j);
+        let c = times_ft(ft, &ft_cols, j);
         if let Some(dst) = f2.get_mut(j * DYN..j * DYN + DYN) {
             dst.copy_from_slice(&c);
         }
     }
     let f2_cols = first(f2);
     for &j in cols {
-        let c = times_ft(&f2_cols, j);
+        let c = times_ft(ft, &f2_cols, j);
         if let Some(dst) = f3.get_mut(j * DYN..j * DYN + DYN) {
             dst.copy_from_slice(&c);
         }

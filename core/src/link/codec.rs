@@ -415,8 +415,20 @@ impl Decoder {
             let data = src.get(taken..).unwrap_or_default();
             let data = data.get(..usize::from(block)).unwrap_or(data);
             let dst = self.buf.get_mut(out..).unwrap_or_default();
+            // Four bytes a turn while none of them is zero (a word's test: it has a zero
+            // byte iff `(w − 0x01…01) & !w & 0x80…80 ≠ 0`), then byte by byte up to a
+            // delimiter: ≈ 3 instructions a byte on the board instead of 7.
             let mut n = 0;
-            for (slot, b) in dst.iter_mut().zip(data) {
+            for (d, s) in dst.chunks_exact_mut(4).zip(data.chunks_exact(4)) {
+                let w = <[u8; 4]>::try_from(s).map_or(0, u32::from_le_bytes);
+                if w.wrapping_sub(0x0101_0101) & !w & 0x8080_8080 != 0 {
+                    break;
+                }
+                d.copy_from_slice(&w.to_le_bytes());
+                n += 4;
+            }
+            let rest = dst.get_mut(n..).unwrap_or_default();
+            for (slot, b) in rest.iter_mut().zip(data.get(n..).unwrap_or_default()) {
                 if *b == 0 {
                     break;
                 }
@@ -607,6 +619,13 @@ mod tests {
             let k = encode(seq as u16, m, &mut buf).unwrap();
             put(&buf[..k]);
             put(&[7, 0, 0]);
+        }
+        // A block cut by a delimiter after 0 to 8 of its data bytes (`take_run`'s four
+        // bytes a turn stop at a zero anywhere in a word).
+        for k in 0..9u8 {
+            put(&[20]);
+            put(&[0x33, 0x44, 0x55, 0x66, 0x77, 0x88, 0x99, 0xAA][..usize::from(k)]);
+            put(&[0]);
         }
         put(&[0x5A; 300]);
         let k = encode(9, &imu(3.0), &mut buf).unwrap();
