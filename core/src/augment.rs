@@ -476,6 +476,18 @@ pub struct Signature<T: Real> {
     pub w_dot_bs: Vector3<T>,
     /// Slave angular rate ω_ib, bias-corrected, slave body (rad/s).
     pub w_ib_bs: Vector3<T>,
+    /// The rate the slave would sense without flexure, slave body (rad/s): the master's
+    /// `ω_ib` at the message from its past rates (`RateFit::value`) carried by the
+    /// estimated mounting, `Exp(μ̂)ᵀ ω_ib^bm` (its current rate until they cover their
+    /// window; the slave's `w_ib_bs` for a master that gives no rate). The gyro scale
+    /// factor's and non-orthogonality's rate columns. The slave's measured rate holds
+    /// the flexure's rate of the moment, which is in the same rate innovation: as that
+    /// column (errors in variables), a draw with the flexure about all three axes and
+    /// no scale factor read 1.5 % (docs/diagnosis.md, "Session 18 (sf-flexure)"). The
+    /// master's current rate holds its own noise, also in that innovation with the
+    /// other sign (−1.0σ on `moored`'s x axis, −2.3σ on z, seeds 1–8). What the column
+    /// leaves out, `diag(θ̇ + [ω×]θ) s`, is of second order.
+    pub w_carried_bs: Vector3<T>,
     /// Slave specific force, bias-corrected, slave body (m/s²).
     pub f_bs: Vector3<T>,
     /// The specific force the slave would sense without flexure, slave body (m/s²): the
@@ -580,10 +592,10 @@ pub fn add_measurement<T: Real, const S: usize>(
                 add_columns(rows, o + 1, &(col * sig.clock_dt));
             }
             (Effect::GyroScaleFactor, Channel::AngularRate) => {
-                add_columns(rows, o, &Matrix3::from_diagonal(&sig.w_ib_bs))
+                add_columns(rows, o, &Matrix3::from_diagonal(&sig.w_carried_bs))
             }
             (Effect::GyroMisalignment, Channel::AngularRate) => {
-                add_columns(rows, o, &nonorthogonality_columns(&sig.w_ib_bs))
+                add_columns(rows, o, &nonorthogonality_columns(&sig.w_carried_bs))
             }
             (Effect::GyroGSensitivity, Channel::AngularRate) => {
                 add_columns(rows, o, &row_major_columns(&sig.f_carried_bs))
@@ -702,6 +714,7 @@ mod tests {
             w_nb_bs: z,
             w_dot_bs: z,
             w_ib_bs: z,
+            w_carried_bs: z,
             f_bs: Vector3::new(1.0, 2.0, 3.0),
             f_carried_bs: f,
             c_bs_n: c_bm_n * exp_so3(&mu),

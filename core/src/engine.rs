@@ -362,11 +362,12 @@ pub struct Engine<T: Real, const S: usize = N> {
     /// `cfg`: asked at every IMU sample and master message, the scan of the layout's
     /// blocks cost the board ≈ 0.4k instructions a master update.
     has_delay: bool,
-    /// Whether `cfg`'s layout carries a lever-arm block ([`layout_has_lever_arm`]), kept
-    /// with `cfg` as `has_delay`.
-    has_lever_arm: bool,
+    /// Whether `cfg`'s layout has columns that take the master's rate from its past rates
+    /// ([`layout_fits_master_rate`]), kept with `cfg` as `has_delay`.
+    fits_master_rate: bool,
     /// The master's last angular rates (for the delay's rate column, the lever-arm
-    /// columns' instrument and the g-sensitivity's rate column).
+    /// columns' instrument, the g-sensitivity's rate column and the gyro scale
+    /// factor's and non-orthogonality's rate columns).
     past_master_rates: PastRates<T>,
     /// Where the master's rates run without a gap ([`RateRun`]).
     rate_run: RateRun,
@@ -528,13 +529,21 @@ fn layout_has_delay<T: Real>(cfg: &EngineConfig<T>) -> bool {
     cfg.augmentation.blocks().any(|b| b.effect.is_clock())
 }
 
-/// Whether `cfg`'s layout carries a lever-arm block (`lever_arm_error`,
-/// `lever_arm_coupling`), whose columns take the master's rate from its past rates
-/// ([`RateFit::value`]; its current rate where they do not cover their window).
-fn layout_has_lever_arm<T: Real>(cfg: &EngineConfig<T>) -> bool {
-    cfg.augmentation
-        .blocks()
-        .any(|b| matches!(b.effect, Effect::LeverArmError | Effect::LeverArmCoupling))
+/// Whether `cfg`'s layout has columns that take the master's rate from its past rates
+/// ([`RateFit::value`]; its current rate where they do not cover their window): a
+/// lever-arm block (`lever_arm_error`, `lever_arm_coupling`), the instrument of its
+/// columns, or the gyro's scale factor or non-orthogonality, whose rate columns are the
+/// rate there (`Signature::w_carried_bs`).
+fn layout_fits_master_rate<T: Real>(cfg: &EngineConfig<T>) -> bool {
+    cfg.augmentation.blocks().any(|b| {
+        matches!(
+            b.effect,
+            Effect::LeverArmError
+                | Effect::LeverArmCoupling
+                | Effect::GyroScaleFactor
+                | Effect::GyroMisalignment
+        )
+    })
 }
 
 impl<T: Real, const S: usize> Engine<T, S> {
@@ -576,7 +585,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             g_force_bs: None,
             frozen: false,
             has_delay: layout_has_delay(&cfg),
-            has_lever_arm: layout_has_lever_arm(&cfg),
+            fits_master_rate: layout_fits_master_rate(&cfg),
             cfg,
         }
     }
@@ -624,7 +633,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         self.g_force_bs = None;
         self.frozen = false;
         self.has_delay = layout_has_delay(&cfg);
-        self.has_lever_arm = layout_has_lever_arm(&cfg);
+        self.fits_master_rate = layout_fits_master_rate(&cfg);
         self.cfg = cfg;
         Ok(())
     }
@@ -1266,7 +1275,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
                     .is_some();
             if let Some(w) = msg.w_ib_bm {
                 self.rate_run.push(msg.t);
-                if keep || self.has_lever_arm {
+                if keep || self.fits_master_rate {
                     self.past_master_rates.push(msg.t, w);
                 }
                 if keep {
@@ -1438,7 +1447,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             past_master_rates: &self.past_master_rates,
             master_trend: &self.master_trend,
             has_delay: self.has_delay(),
-            has_lever_arm: self.has_lever_arm,
+            fits_master_rate: self.fits_master_rate,
             rates_cover: self.rate_run.covers(msg.t),
             clock_dt: self.clock_dt(msg.t),
         };
@@ -1668,9 +1677,9 @@ struct Nominal<'a, T: Real> {
     master_trend: &'a VelocityTrend<T>,
     /// Whether the layout carries the master delay (`Engine::has_delay`).
     has_delay: bool,
-    /// Whether the layout carries a lever-arm block, whose columns take the master's
-    /// rate from its past rates (`Engine::has_lever_arm`).
-    has_lever_arm: bool,
+    /// Whether the layout has columns that take the master's rate from its past rates
+    /// (`Engine::fits_master_rate`).
+    fits_master_rate: bool,
     /// Whether the master's past rates cover their window before this message
     /// ([`RateRun::covers`]).
     rates_cover: bool,
@@ -1726,7 +1735,7 @@ fn measure<T: Real>(
     // columns' instrument.
     let gives_rate = msg.w_ib_bm.is_some();
     let covered = gives_rate && e.rates_cover;
-    let fit = if (e.has_delay || e.has_lever_arm) && covered {
+    let fit = if (e.has_delay || e.fits_master_rate) && covered {
         // The master's own rate noise variance (rad²/s²; the lever arm's, which holds
         // none of the slave side's model error).
         let sigma = e.cfg.measurement_noise.lever_arm_rate_radps;
@@ -2027,7 +2036,7 @@ fn signature<T: Real>(
     // The lever-arm columns' rate: the instrument where the master's past rates give it
     // (`PastRates::fit`), as a rate relative to the Earth by the current message's
     // Earth part.
-    let lever_rate = match (msg.w_ib_bm, fit.filter(|_| e.has_lever_arm)) {
+    let lever_rate = match (msg.w_ib_bm, fit.filter(|_| e.fits_master_rate)) {
         (Some(w_ib), Some(f)) => Some(vec3(|i| {
             vget(w_eb_bm, i) + (vget(&f.value, i) - vget(&w_ib, i))
         })),
@@ -2041,6 +2050,11 @@ fn signature<T: Real>(
         w_nb_bs,
         w_dot_bs,
         w_ib_bs,
+        w_carried_bs: match (fit.filter(|_| e.fits_master_rate), msg.w_ib_bm) {
+            (Some(f), _) => mul3v(&m_bs, &f.value),
+            (None, Some(w)) => mul3v(&m_bs, &w),
+            (None, None) => w_ib_bs,
+        },
         f_bs,
         f_carried_bs,
         c_bs_n,

@@ -97,7 +97,7 @@ fn signature(fx: &Fixed, t: f64) -> Signature<f64> {
     let h = 1e-4;
     let s = slave(fx, t);
     let m = motion().attitude(t);
-    let (_, w_eb) = master_rates(&m, &fx.v_m);
+    let (w_ib, w_eb) = master_rates(&m, &fx.v_m);
     let w_ib_at = |tt: f64| master_rates(&motion().attitude(tt), &fx.v_m).0;
     let w_dot = (w_ib_at(t + h) - w_ib_at(t - h)) / (2.0 * h);
     let p = pos();
@@ -125,6 +125,7 @@ fn signature(fx: &Fixed, t: f64) -> Signature<f64> {
         w_nb_bs: s.w_ib_bs - s.c_bs_n.transpose() * w_in,
         w_dot_bs: exp_so3(&fx.mu).transpose() * w_dot,
         w_ib_bs: s.w_ib_bs,
+        w_carried_bs: exp_so3(&fx.mu).transpose() * w_ib,
         f_bs: Vector3::zeros(),
         f_carried_bs,
         c_bs_n: s.c_bs_n,
