@@ -254,18 +254,23 @@ fn a_master_delay_is_found_on_a_blind_recording_with_the_model_learned_from_it()
 /// the surveys that traced these draws) carrying a lever-arm error: the draw's arm error
 /// and the diagnosis.
 fn blind_lever_arm_diagnosis(seed: u64) -> ([f64; 3], Diagnosis) {
+    use flexcal_sim::sim::blind::{draw, BlindEffect};
+    let sc = draw(seed, 300.0, Some(BlindEffect::LeverArmError));
+    (sc.undeclared.lever_arm_error_m, blind_diagnosis(&sc, seed))
+}
+
+/// `flexcal diagnose`'s whole path with no configuration (the model learned from the
+/// recording) on blind scenario `sc` simulated with `seed`.
+fn blind_diagnosis(sc: &Scenario, seed: u64) -> Diagnosis {
     use flexcal_sim::cmd::calibrate::prepare_config;
     use flexcal_sim::cmd::common::ModelArgs;
     use flexcal_sim::cmd::diagnose::search_start;
-    use flexcal_sim::sim::blind::{draw, BlindEffect};
-    let sc = draw(seed, 300.0, Some(BlindEffect::LeverArmError));
-    let rec = simulate(&sc, seed).recording;
+    let rec = simulate(sc, seed).recording;
     let empty = tempfile::tempdir().expect("temp dir");
     let prepared =
         prepare_config(&rec, empty.path(), None, &ModelArgs::default()).expect("prepare");
     let (cfg, opts) = search_start(&prepared);
-    let d = diagnose(&rec, &cfg, &opts).expect("diagnose");
-    (sc.undeclared.lever_arm_error_m, d)
+    diagnose(&rec, &cfg, &opts).expect("diagnose")
 }
 
 /// Asserts the diagnosis found the lever-arm error alone, within 3σ of `truth` (m).
@@ -327,9 +332,6 @@ fn a_lever_arm_error_read_against_the_start_is_found_once_the_whole_model_is_lea
 /// final model (`docs/diagnosis.md`, "Session 18").
 #[test]
 fn a_delay_and_a_lever_arm_drawn_together_are_both_found_once_the_model_is_learned_with_the_arm() {
-    use flexcal_sim::cmd::calibrate::prepare_config;
-    use flexcal_sim::cmd::common::ModelArgs;
-    use flexcal_sim::cmd::diagnose::search_start;
     use flexcal_sim::sim::blind::{draw_effects, BlindEffect};
     let seed = 103;
     let sc = draw_effects(
@@ -337,12 +339,7 @@ fn a_delay_and_a_lever_arm_drawn_together_are_both_found_once_the_model_is_learn
         300.0,
         &[BlindEffect::TimeDelay, BlindEffect::LeverArmError],
     );
-    let rec = simulate(&sc, seed).recording;
-    let empty = tempfile::tempdir().expect("temp dir");
-    let prepared =
-        prepare_config(&rec, empty.path(), None, &ModelArgs::default()).expect("prepare");
-    let (cfg, opts) = search_start(&prepared);
-    let d = diagnose(&rec, &cfg, &opts).expect("diagnose");
+    let d = blind_diagnosis(&sc, seed);
     let first = d.rounds.first().expect("round 1");
     let judged = first
         .relearned_candidate
