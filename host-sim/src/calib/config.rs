@@ -467,6 +467,15 @@ impl CalibConfig {
         Ok(aug)
     }
 
+    /// The clock effect its `effects` carry (`time_delay` before `clock_drift`, which
+    /// replaces it in a layout), if any: the effect whose delay the model starts from
+    /// `initial_delay_s`.
+    pub fn clock_effect(&self) -> Option<Effect> {
+        [Effect::TimeDelay, Effect::ClockDrift]
+            .into_iter()
+            .find(|c| self.effects.iter().any(|e| e == c.name()))
+    }
+
     /// The AR order of each axis's flexure model (trailing zero coefficients dropped; a
     /// second-order Gauss-Markov axis has two states, order 2).
     pub fn flexure_orders(&self) -> [usize; 3] {

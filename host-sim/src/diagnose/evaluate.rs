@@ -69,9 +69,7 @@ impl ModelEval {
 /// than its σ (at most `DELAY_PASSES` runs). The drift's rate starts from zero each pass.
 pub fn run_model(rec: &Recording, cfg: &CalibConfig) -> Result<ModelEval, String> {
     let mut cfg = cfg.clone();
-    let clock = [Effect::TimeDelay, Effect::ClockDrift]
-        .into_iter()
-        .find(|c| cfg.effects.iter().any(|e| e == c.name()));
+    let clock = cfg.clock_effect();
     let mut result = run(rec, &cfg, Precision::F64)?;
     if let Some(clock) = clock {
         for _ in 1..DELAY_PASSES {
@@ -182,10 +180,7 @@ pub fn evaluate_model(
     cfg: &CalibConfig,
     fraction: f64,
 ) -> Result<ModelEval, String> {
-    let clock = [Effect::TimeDelay, Effect::ClockDrift]
-        .iter()
-        .any(|c| cfg.effects.iter().any(|e| e == c.name()));
-    if clock {
+    if cfg.clock_effect().is_some() {
         return with_holdout(rec, run_model(rec, cfg)?, fraction);
     }
     let (eval, holdout) = std::thread::scope(|s| {

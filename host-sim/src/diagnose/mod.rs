@@ -344,11 +344,7 @@ fn relearn(
     also: impl Fn(f64) -> bool,
 ) -> Result<(Relearned, Option<ModelEval>), String> {
     let l = crate::learn::relearn_with(rec, from, layout)?;
-    let has_clock = layout
-        .effects
-        .iter()
-        .any(|e| Effect::from_name(e).is_some_and(Effect::is_clock));
-    let delay_judged_s = if has_clock {
+    let delay_judged_s = if layout.clock_effect().is_some() {
         layout.initial_delay_s
     } else {
         from.start.initial_delay_s
@@ -1023,13 +1019,7 @@ pub fn diagnose(
             .as_ref()
             .and_then(|c| c.relearned.as_ref())
             .filter(|r| r.kept)
-            .map(|r| {
-                (
-                    r.clone(),
-                    r.holdout_replaced - r.holdout_relearned,
-                    r.likelihood_ratio,
-                )
-            });
+            .cloned();
         let adopted_with_refit = refitted.is_some() && adopted_relearned.is_none();
         let (Some(effect), Some(Ok(run))) = (
             untried.get(k),
@@ -1048,13 +1038,13 @@ pub fn diagnose(
                 t.size_after = r.size_after;
                 t.holdout_likelihood_ratio = Some(r.holdout_likelihood_ratio);
             }
-            if let Some((r, holdout_gain, lr)) = adopted_relearned.as_ref() {
+            if let Some(r) = adopted_relearned.as_ref() {
                 t.wald = r.wald;
-                t.likelihood_ratio = *lr;
+                t.likelihood_ratio = r.likelihood_ratio;
                 t.estimate = r.estimate.clone();
                 t.sigma = r.sigma.clone();
                 t.size_after = size::total_excess(&size::axis_sizes(&run.result.innovations, rate));
-                t.holdout_likelihood_ratio = Some(*holdout_gain);
+                t.holdout_likelihood_ratio = Some(r.holdout_replaced - r.holdout_relearned);
             }
             t
         });

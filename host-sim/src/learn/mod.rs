@@ -433,11 +433,7 @@ pub fn relearn_with(
         .filter(|e| !Effect::MASTER_ERRORS.iter().any(|m| m.name() == e.as_str()))
         .cloned()
         .collect();
-    let clock_in_layout = layout
-        .effects
-        .iter()
-        .any(|e| Effect::from_name(e).is_some_and(Effect::is_clock));
-    if clock_in_layout {
+    if layout.clock_effect().is_some() {
         start.initial_delay_s = layout.initial_delay_s;
     }
     let mut l = learn(
