@@ -177,6 +177,9 @@ pub fn run(a: &Args) -> Result<(), String> {
                 report::decision(t, r)
             );
         }
+        if let Some(line) = report::rivals_line(r) {
+            println!("  round {}: {line}", k + 1);
+        }
         if let Some(line) = report::relearn_line(r) {
             println!("  round {}: {line}", k + 1);
         }

@@ -268,6 +268,31 @@ pub struct Round {
     /// whether that adopted it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub relearned_candidate: Option<RelearnedCandidate>,
+    /// Where the candidate chosen on the model as it stood had a rival that explained the
+    /// structure about as well: both judged on the whole model learned again with each.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rivals: Option<Rivals>,
+}
+
+/// Two significant candidates that explained a round's structure alike on the model as
+/// it stood (their likelihood ratios over their thresholds within `margin`), each judged
+/// on the whole model learned again with it (`Round::rivals`, `judge_rivals`).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Rivals {
+    /// The candidate the round chose on the model as it stood.
+    pub leader: RelearnedCandidate,
+    /// The runner-up within `margin` of it.
+    pub rival: RelearnedCandidate,
+    /// The margin (−2 ln L): the χ²(1) threshold of the search, the likelihood one more
+    /// state must gain (`Options::threshold`).
+    pub margin: f64,
+    /// The one adopted.
+    pub chosen: &'static str,
+    /// Whether the models learned again told them apart: the chosen one's, kept, predicts
+    /// the held-out part better than the other's by more than `margin`, or the other's is
+    /// not kept. When not, the leader stays and the report says the recording does not
+    /// tell the two apart.
+    pub told_apart: bool,
 }
 
 /// A significant candidate judged on the whole model learned again with it
@@ -458,6 +483,131 @@ fn judge_relearned(
             None,
         ),
     })
+}
+
+/// Where the round's chosen candidate (`leader`, an index into `untried` and `runs`) has
+/// a significant runner-up whose likelihood ratio over its threshold lies within the
+/// χ²(1) threshold of the leader's, the two are judged on the whole model learned again
+/// with each (`relearn`), and the one whose model predicts the held-out part better by
+/// more than that margin is adopted on its model learned again. On blind draw 107 (an
+/// accelerometer scale factor) a gyro scale factor led by 2.9 (205.5 against 202.5) and
+/// was adopted 12σ off; learned again with each, the accelerometer's model predicts the
+/// held-out part better by 186 (`docs/diagnosis.md`, "Session 19"). Without a learning
+/// (the declared model is the truth) or with a clock effect in the pair where the
+/// learning compensated the delay (`skip_clock`, `judge_relearned`'s reason), nothing is
+/// judged. Returns the record and, when the winner's model learned again is kept, its
+/// index, that model evaluated and its learning's record.
+#[allow(clippy::too_many_arguments)]
+fn judge_rivals(
+    rec: &Recording,
+    from: &crate::learn::Learned,
+    current: &ModelEval,
+    leader: usize,
+    ranked: &[(f64, usize)],
+    untried: &[Effect],
+    runs: &[Result<ModelEval, String>],
+    tests: &[CandidateTest],
+    skip_clock: bool,
+    span_s: f64,
+    opts: &Options,
+) -> Option<(Rivals, Option<(usize, ModelEval, Relearned)>)> {
+    let margin = opts.threshold(1);
+    let position = ranked.iter().position(|&(_, k)| k == leader)?;
+    let &(lead_score, _) = ranked.get(position)?;
+    let usable = |k: usize| {
+        let effect = *untried.get(k)?;
+        let (Some(Ok(run)), Some(test)) = (runs.get(k), tests.get(k)) else {
+            return None;
+        };
+        (!(skip_clock && effect.is_clock())).then_some((effect, run, test))
+    };
+    let (lead_effect, lead_run, lead_test) = usable(leader)?;
+    let (rival, (rival_effect, rival_run, rival_test)) = ranked
+        .get(position + 1..)?
+        .iter()
+        .take_while(|&&(score, _)| lead_score - score <= margin)
+        .find_map(|&(_, k)| usable(k).map(|u| (k, u)))?;
+    let judge = |effect: Effect, run: &ModelEval, test: &CandidateTest| {
+        let threshold = test.threshold;
+        let outcome = relearn(
+            rec,
+            from,
+            &run.cfg,
+            current,
+            effect,
+            threshold,
+            span_s,
+            opts,
+            |lr| lr > threshold,
+        );
+        match outcome {
+            Ok((record, again)) => (
+                RelearnedCandidate {
+                    effect: effect.name(),
+                    relearned: Some(record),
+                    error: None,
+                },
+                again,
+            ),
+            Err(e) => (
+                RelearnedCandidate {
+                    effect: effect.name(),
+                    relearned: None,
+                    error: Some(e),
+                },
+                None,
+            ),
+        }
+    };
+    let (lead_record, lead_again) = judge(lead_effect, lead_run, lead_test);
+    let (rival_record, rival_again) = judge(rival_effect, rival_run, rival_test);
+    // The held-out −2 ln L of a model learned again that is kept (predicts the held-out
+    // part better than the current model, the effect significant in it).
+    let kept_holdout = |c: &RelearnedCandidate| {
+        c.relearned
+            .as_ref()
+            .filter(|r| r.kept)
+            .map(|r| r.holdout_relearned)
+    };
+    let (rival_wins, told_apart) = rival_verdict(
+        kept_holdout(&lead_record),
+        kept_holdout(&rival_record),
+        margin,
+    );
+    let (chosen, adopted) = if rival_wins {
+        (rival, rival_again.zip(rival_record.relearned.clone()))
+    } else {
+        (leader, lead_again.zip(lead_record.relearned.clone()))
+    };
+    let chosen_name = untried.get(chosen).map_or("", |e| e.name());
+    Some((
+        Rivals {
+            leader: lead_record,
+            rival: rival_record,
+            margin,
+            chosen: chosen_name,
+            told_apart,
+        },
+        adopted.map(|(again, record)| (chosen, again, record)),
+    ))
+}
+
+/// Which of two rivals judged on the whole model learned again with each is adopted
+/// (`judge_rivals`), from each model's held-out −2 ln L where that model is kept (`None`:
+/// not kept): `(the rival wins, told apart)`. The rival wins only when its model predicts
+/// the held-out part better than the leader's by more than `margin`, or the leader's is
+/// not kept; they are told apart when one wins so. Otherwise the leader stays.
+fn rival_verdict(leader: Option<f64>, rival: Option<f64>, margin: f64) -> (bool, bool) {
+    let beats = |a: Option<f64>, b: Option<f64>| match (a, b) {
+        (Some(a), Some(b)) => a < b - margin,
+        (Some(_), None) => true,
+        (None, _) => false,
+    };
+    if beats(rival, leader) {
+        (true, true)
+    } else {
+        (false, beats(leader, rival))
+    }
 }
 
 /// The outcome of a diagnosis.
@@ -974,6 +1124,38 @@ pub fn diagnose(
             }
         }
         let model: Vec<&'static str> = present.blocks().map(|b| b.effect.name()).collect();
+        // The one chosen and a runner-up that explained the structure alike, each judged
+        // on the whole model learned again with it.
+        let mut rivals = None;
+        // The model learned again that an adoption of this round is made on, if any.
+        let mut adopted_relearned: Option<Relearned> = None;
+        if let (Some(leader), Some(from)) = (best.as_ref().map(|b| b.0), opts.relearn.as_ref()) {
+            if let Some((record, adopted)) = judge_rivals(
+                rec,
+                from,
+                &current,
+                leader,
+                &ranked,
+                &untried,
+                &runs,
+                &tests,
+                delay_learned,
+                span_s,
+                opts,
+            ) {
+                // The rival is adopted on its model learned again; the leader stays as
+                // adopted, and the relearn after an adoption (below) judges its model
+                // learned again against it, each with the delay it was learned with.
+                let adopted = adopted.filter(|(k, _, _)| *k != leader);
+                if let Some((k, again, relearned)) = adopted {
+                    if let Some(h) = again.holdout.clone() {
+                        best = Some((k, h, Some(again)));
+                        adopted_relearned = Some(relearned);
+                    }
+                }
+                rivals = Some(record);
+            }
+        }
         // None adopted on the model as it stood: the strongest significant candidate
         // judged on the whole model learned again with it.
         let mut relearned_candidate = None;
@@ -1010,16 +1192,19 @@ pub fn diagnose(
                 relearned: None,
                 not_relearned: None,
                 relearned_candidate,
+                rivals,
             });
             break;
         };
         // Adopted on the whole model learned again with it: its figures are that
         // model's, and it is not learned again after.
-        let adopted_relearned = relearned_candidate
-            .as_ref()
-            .and_then(|c| c.relearned.as_ref())
-            .filter(|r| r.kept)
-            .cloned();
+        let adopted_relearned = adopted_relearned.or_else(|| {
+            relearned_candidate
+                .as_ref()
+                .and_then(|c| c.relearned.as_ref())
+                .filter(|r| r.kept)
+                .cloned()
+        });
         let adopted_with_refit = refitted.is_some() && adopted_relearned.is_none();
         let (Some(effect), Some(Ok(run))) = (
             untried.get(k),
@@ -1059,6 +1244,7 @@ pub fn diagnose(
             relearned: None,
             not_relearned: None,
             relearned_candidate,
+            rivals,
         });
         current = ModelEval {
             holdout: Some(chosen_holdout),
@@ -1175,6 +1361,19 @@ mod tests {
             adoption(true, refit(false, false, false)),
             Adoption::Rejected
         );
+    }
+
+    #[test]
+    fn a_rival_wins_only_by_more_than_the_margin_or_where_the_leader_is_not_kept() {
+        let m = 12.0;
+        // Held-out −2 ln L: lower predicts better.
+        assert_eq!(rival_verdict(Some(-100.0), Some(-200.0), m), (true, true));
+        assert_eq!(rival_verdict(Some(-100.0), Some(-105.0), m), (false, false));
+        assert_eq!(rival_verdict(Some(-105.0), Some(-100.0), m), (false, false));
+        assert_eq!(rival_verdict(Some(-200.0), Some(-100.0), m), (false, true));
+        assert_eq!(rival_verdict(None, Some(-100.0), m), (true, true));
+        assert_eq!(rival_verdict(Some(-100.0), None, m), (false, true));
+        assert_eq!(rival_verdict(None, None, m), (false, false));
     }
 
     #[test]

@@ -208,7 +208,7 @@ pub fn diagnosis_json(d: &Diagnosis, rec_label: &str, rec: &Recording, command: 
             "budget": d.options.budget,
             "alpha": d.options.alpha,
             "tests": d.options.budget * d.options.candidates.len(),
-            "rule": "a candidate is significant when the Wald statistic of its block and the likelihood ratio both exceed the chi-square(dof) quantile at alpha / tests; of the significant, the one whose likelihood ratio exceeds its threshold most, whose held-out likelihood ratio is positive and which does not grow the structure's size (predictable innovation variance) beyond its chance level, nor leave more than half of it where the structure dominates a channel axis (more than half its variance predictable), is added; a backward pass then drops an adopted effect whose likelihood ratio against the final set without it is at most its threshold or whose held-out likelihood ratio is not positive",
+            "rule": "a candidate is significant when the Wald statistic of its block and the likelihood ratio both exceed the chi-square(dof) quantile at alpha / tests; of the significant, the one whose likelihood ratio exceeds its threshold most, whose held-out likelihood ratio is positive and which does not grow the structure's size (predictable innovation variance) beyond its chance level, nor leave more than half of it where the structure dominates a channel axis (more than half its variance predictable), is added; where a significant runner-up's likelihood ratio over its threshold lies within the chi-square(1) threshold of the chosen one's, the whole model is learned again with each and the runner-up is adopted instead, on its model learned again, when that model predicts the held-out part better than the current one and than the chosen one's by more than that margin (or the chosen one's does not), its effect significant in it; a backward pass then drops an adopted effect whose likelihood ratio against the final set without it is at most its threshold or whose held-out likelihood ratio is not positive",
             "dropped": d.dropped,
             "rounds": rounds_json(d),
         },
@@ -304,6 +304,24 @@ pub fn decision(t: &CandidateTest, round: &Round) -> String {
         .is_some_and(|x| x.kept);
     if relearned_adopted && round.added == Some(t.effect) {
         return "adopted once the whole model was learned again with it (none adopted as the model stood)".into();
+    }
+    if let Some(x) = round.rivals.as_ref() {
+        if x.rival.effect == t.effect && x.chosen == t.effect {
+            return format!(
+                "adopted over `{}`, which led it by less than {} in likelihood: {}",
+                x.leader.effect,
+                fmt_g(x.margin),
+                rivals_outcome(x)
+            );
+        }
+        if (x.leader.effect == t.effect || x.rival.effect == t.effect) && x.chosen != t.effect {
+            return format!(
+                "not adopted: it and `{}` explained the structure alike (within {} in likelihood): {}",
+                x.chosen,
+                fmt_g(x.margin),
+                rivals_outcome(x)
+            );
+        }
     }
     if let Some(r) = &t.refit {
         let note = refit_note(r);
@@ -438,6 +456,59 @@ pub fn supported_not_adopted(d: &Diagnosis) -> Vec<Value> {
             })
         })
         .collect()
+}
+
+/// How judging two rivals on the whole model learned again with each came out, in a
+/// clause: their held-out −2 ln L and whether it told them apart.
+fn rivals_outcome(x: &crate::diagnose::Rivals) -> String {
+    let figure = |c: &crate::diagnose::RelearnedCandidate| match c.relearned.as_ref() {
+        Some(r) => format!(
+            "{} (Wald {:.1}{})",
+            fmt_g(r.holdout_relearned),
+            r.wald,
+            if r.kept { "" } else { ", not kept" }
+        ),
+        None => format!(
+            "not learned: {}",
+            c.error.as_deref().unwrap_or("no reason given")
+        ),
+    };
+    let held_out =
+        |c: &crate::diagnose::RelearnedCandidate| c.relearned.as_ref().map(|r| r.holdout_relearned);
+    let by = match (held_out(&x.leader), held_out(&x.rival)) {
+        (Some(a), Some(b)) => format!(" by {}", fmt_g((a - b).abs())),
+        _ => String::new(),
+    };
+    let verdict = if x.told_apart {
+        format!("`{}` predicts it better{by}", x.chosen)
+    } else {
+        format!(
+            "the recording does not tell them apart ({}within {}); `{}`, which led as the model stood, stays",
+            if by.is_empty() { String::new() } else { format!("they differ{by}, ") },
+            fmt_g(x.margin),
+            x.chosen
+        )
+    };
+    format!(
+        "learned again with each, held-out -2 ln L with `{}` {}, with `{}` {}: {verdict}",
+        x.leader.effect,
+        figure(&x.leader),
+        x.rival.effect,
+        figure(&x.rival)
+    )
+}
+
+/// What judging a round's two rivals did (`Round::rivals`), in one sentence; `None`
+/// when the round had none.
+pub fn rivals_line(r: &Round) -> Option<String> {
+    let x = r.rivals.as_ref()?;
+    Some(format!(
+        "`{}` and `{}` explained the structure alike as the model stood (within {} in likelihood); {}",
+        x.leader.effect,
+        x.rival.effect,
+        fmt_g(x.margin),
+        rivals_outcome(x)
+    ))
 }
 
 /// What a round's relearn (`Round::relearned`, or `Round::relearned_candidate`) did, in
@@ -683,6 +754,9 @@ pub fn report_md(d: &Diagnosis, rec_label: &str, rec: &Recording, command: &str)
                 t.holdout_likelihood_ratio.map_or("–".to_string(), fmt_g),
                 decision(t, r)
             );
+        }
+        if let Some(line) = rivals_line(r) {
+            let _ = writeln!(s, "\nThen {line}.");
         }
         if let Some(line) = relearn_line(r) {
             let _ = writeln!(s, "\nThen {line}.");
