@@ -485,6 +485,10 @@ fn judge_relearned(
     })
 }
 
+/// A candidate adopted on the whole model learned again with it: its index into the
+/// round's candidates, that model evaluated, and its learning's record.
+type RelearnedAdoption = (usize, ModelEval, Relearned);
+
 /// Where the round's chosen candidate (`leader`, an index into `untried` and `runs`) has
 /// a significant runner-up whose likelihood ratio over its threshold lies within the
 /// χ²(1) threshold of the leader's, the two are judged on the whole model learned again
@@ -510,7 +514,7 @@ fn judge_rivals(
     skip_clock: bool,
     span_s: f64,
     opts: &Options,
-) -> Option<(Rivals, Option<(usize, ModelEval, Relearned)>)> {
+) -> Option<(Rivals, Option<RelearnedAdoption>)> {
     let margin = opts.threshold(1);
     let position = ranked.iter().position(|&(_, k)| k == leader)?;
     let &(lead_score, _) = ranked.get(position)?;
