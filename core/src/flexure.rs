@@ -36,9 +36,32 @@ pub enum AxisModel<T> {
 }
 
 impl<T: Real> AxisModel<T> {
+    /// Whether the axis is rigid: a stationary model without driving noise (σ = 0, a
+    /// stiff mount, or a scenario without flexure about the axis), whose angle and rate
+    /// are zero at all times. The filter holds such an axis's θ and θ̇ out of the
+    /// estimation (the engine's initial factor, its measurement rows, and
+    /// [`AxisModel::transition`]): carried as states with zero variance, they took the
+    /// scale of a zero variance (1), so the variance floor, which is relative to the
+    /// scale, lifted them by an absolute 1e-12 rad² (f64) every step, and the time
+    /// update divided by those floor-sized variances (docs/diagnosis.md, "The rigid
+    /// flexure axis"). A non-stationary AR(2) without noise (a constant or drifting angle
+    /// from the prior) is not rigid.
+    pub fn is_rigid(&self) -> bool {
+        match self {
+            AxisModel::Ar(a) => a.sigma_rad == T::zero() && a.is_stationary(),
+            AxisModel::SecondOrder(g) => g.sigma_rad == T::zero(),
+        }
+    }
+
     /// Transition of the axis's two states over one period `t` (a second-order axis
-    /// was discretized at its model's period, which the engine requires to be `t`).
+    /// was discretized at its model's period, which the engine requires to be `t`). A
+    /// rigid axis's ([`AxisModel::is_rigid`]) is the identity: its states are inert in
+    /// the filter (zero, with a fixed variance no row reads), and the mode's transition
+    /// would move that variance between them.
     pub fn transition(&self, t: T) -> Matrix2<T> {
+        if self.is_rigid() {
+            return Matrix2::identity();
+        }
         match self {
             AxisModel::Ar(a) => a.transition(t),
             AxisModel::SecondOrder(g) => g.phi,
