@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # Rows of docs/diagnosis.md's table of rigid and stiff flexure axes: a scenario (a blind
 # draw's drawn.toml, edited) with its flexure's `sigma_arcmin` replaced, simulated (seed
-# 1) and calibrated with its own model (handed its truth: the scenario's mounting
+# $SEED, 1 unless set) and calibrated with its own model (handed its truth: the scenario's mounting
 # appended), the matching as declared or as given. Prints per row the filter's health
 # (resets, refused non-finite steps, clamped variances), the mean NEES of the calibrated
-# states, the channels whose mean NIS is out of its band, and the verdict.
+# states, the misalignment's and the gyro bias's error/σ per axis, the channels whose mean NIS is out of its band, and the verdict.
 #
 #   scripts/rigid-axis-table.sh SCENARIO OUT_DIR 'SX, SY, SZ' [MATCHING]...
 #
@@ -24,7 +24,7 @@ tag=$(echo "$sigma" | tr -d ' ' | tr ',' '_')
 sed "s/^sigma_arcmin = .*/sigma_arcmin = [$sigma]/" "$scen" > "$out/s$tag.toml"
 rec=$out/r$tag
 rm -rf "$rec"
-"$F" simulate --scenario "$out/s$tag.toml" --seed 1 --out "$rec" > /dev/null
+"$F" simulate --scenario "$out/s$tag.toml" --seed "${SEED:-1}" --out "$rec" > /dev/null
 python3 "$(dirname "$0")/drawn-mounting.py" "$out/s$tag.toml" >> "$rec/calibrate.toml"
 for m in "$@"; do
   mtag=$(echo "${m:-declared}" | tr -d ' "' | tr ',' '+')
@@ -39,8 +39,10 @@ h = s["health"]
 v = s["verdict"]
 nis = ["%s %.2f" % (f["where"], f["numbers"]["nis_mean"]) for f in v["findings"]
        if f["code"] == "nis_out_of_band"]
-print("| %s | %s | %d | %d | %d | %.2f | %s | %s |" % (
+z = lambda k: " ".join("%.1f" % (e / sd) for e, sd in zip(s["errors"][k], s[k + "_sigma"]))
+print("| %s | %s | %d | %d | %d | %.2f | %s | %s | %s | %s |" % (
     sys.argv[2], sys.argv[3], h["filter_resets"], h["non_finite"], h["variance_clamped"],
-    s["errors"]["nees_mean"], ", ".join(nis) or "–", v["level"]))
+    s["errors"]["nees_mean"], z("misalignment"), z("gyro_bias"), ", ".join(nis) or "–",
+    v["level"]))
 PY
 done

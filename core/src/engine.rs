@@ -876,7 +876,12 @@ impl<T: Real, const S: usize> Engine<T, S> {
             flexure: block(TH),
             // A rigid axis's θ is zero and known: its state's variance is a placeholder.
             flexure_sigma: Vector3::from_fn(|k, _| {
-                let rigid = self.cfg.flexure.axes.get(k).is_some_and(AxisModel::is_rigid);
+                let rigid = self
+                    .cfg
+                    .flexure
+                    .axes
+                    .get(k)
+                    .is_some_and(AxisModel::is_rigid);
                 if rigid {
                     T::zero()
                 } else {

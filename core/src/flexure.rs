@@ -325,6 +325,41 @@ mod tests {
         assert_eq!(ar.rate_diffusion(), 0.0);
     }
 
+    /// A rigid axis (σ = 0, second-order or a stationary AR(2)) holds its states: the
+    /// identity and no process noise, in both precisions; a flexing axis keeps its
+    /// mode's transition, and an AR(2) without noise that is not stationary (an angle
+    /// held from its prior) is not rigid.
+    #[test]
+    fn a_rigid_axis_holds_its_states() {
+        fn check<T: Real>() {
+            let t = T::of(0.01);
+            let (w, z) = (T::of(1.5), T::of(0.3));
+            let zero = Matrix2::<T>::zeros();
+            let rigid_gm =
+                AxisModel::SecondOrder(SecondOrderAxis::new(w, z, T::zero(), t).unwrap());
+            let ar = |a1: f64, a2: f64, s: f64| {
+                AxisModel::Ar(ArAxis {
+                    a1: T::of(a1),
+                    a2: T::of(a2),
+                    sigma_rad: T::of(s),
+                })
+            };
+            for m in [rigid_gm, ar(1.9, -0.91, 0.0)] {
+                assert!(m.is_rigid());
+                assert_eq!(m.transition(t), Matrix2::identity());
+                assert_eq!(m.noise_covariance(t), zero);
+            }
+            let g = SecondOrderAxis::new(w, z, T::of(1e-4), t).unwrap();
+            let flexing = AxisModel::SecondOrder(g);
+            assert!(!flexing.is_rigid());
+            assert_eq!(flexing.transition(t), g.phi);
+            assert!(!ar(1.9, -0.91, 1e-6).is_rigid());
+            assert!(!ar(1.0, 0.0, 0.0).is_rigid());
+        }
+        check::<f32>();
+        check::<f64>();
+    }
+
     #[test]
     fn transition_matches_ar_recursion() {
         let ax = ArAxis {
