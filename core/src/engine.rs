@@ -6,7 +6,7 @@
 use crate::align::{AlignBuffer, AlignError, RateAt, SlaveAt, Snapshot};
 use crate::augment::{self, Augmentation, Channel, Effect, Signature, CLOCK_DRIFT_PRIOR_SPAN_S};
 use crate::earth::{self, Position};
-use crate::flexure::FlexureModel;
+use crate::flexure::{AxisModel, FlexureModel};
 use crate::kalman::{Health, Kalman, ScalarUpdate};
 use crate::mat::{self, mul3, mul3v, transpose3, vec3, vget, zip3};
 use crate::model::{
@@ -685,6 +685,13 @@ impl<T: Real, const S: usize> Engine<T, S> {
         }
         for (axis, ar) in cfg.flexure.axes.iter().enumerate() {
             let (i, j) = (TH + axis, THD + axis);
+            if ar.is_rigid() {
+                // Inert, as the states past the layout: unit variance, tied to nothing
+                // (below: not to ψ either), read by no row (`match_master`).
+                set_d(i, T::one());
+                set_d(j, T::one());
+                continue;
+            }
             match ar.stationary_covariance(cfg.flexure.period_s) {
                 Some(c) => {
                     let (a, b, e) = (mat::get(&c, 0, 0), mat::get(&c, 0, 1), mat::get(&c, 1, 1));
@@ -715,12 +722,15 @@ impl<T: Real, const S: usize> Engine<T, S> {
         }
         // ψ = −J (δμ + θ) + n. U maps the independent parts e (variances D) to the states,
         // x = U e, and θ = e_θ + U(θ, θ̇) e_θ̇: so ψ's row is −J at δμ and θ and
-        // −J U(θ, θ̇) at θ̇.
+        // −J U(θ, θ̇) at θ̇. A rigid axis's θ is zero: nothing at its columns.
         let j = right_jacobian(&cfg.initial_misalignment_rad);
         for r in 0..3 {
             for c in 0..3 {
                 let v = -mat::get(&j, r, c);
                 mat::set(u, PSI + r, MU + c, v);
+                if cfg.flexure.axes.get(c).is_some_and(AxisModel::is_rigid) {
+                    continue;
+                }
                 mat::set(u, PSI + r, TH + c, v);
                 let w = v * mat::get(u, TH + c, THD + c);
                 mat::set(u, PSI + r, THD + c, w);
@@ -864,7 +874,20 @@ impl<T: Real, const S: usize> Engine<T, S> {
             misalignment: self.misalignment + block(MU),
             misalignment_sigma: sig(MU),
             flexure: block(TH),
-            flexure_sigma: sig(TH),
+            // A rigid axis's θ is zero and known: its state's variance is a placeholder.
+            flexure_sigma: Vector3::from_fn(|k, _| {
+                let rigid = self
+                    .cfg
+                    .flexure
+                    .axes
+                    .get(k)
+                    .is_some_and(AxisModel::is_rigid);
+                if rigid {
+                    T::zero()
+                } else {
+                    self.kf.sigma(TH + k)
+                }
+            }),
         }
     }
 
@@ -1498,6 +1521,18 @@ impl<T: Real, const S: usize> Engine<T, S> {
             }
             if lag != T::zero() {
                 declared |= three(TH) | three(THD);
+            }
+            // A rigid axis's θ and θ̇ are inert (`AxisModel::is_rigid`): no column.
+            for (k, axis) in engine.cfg.flexure.axes.iter().enumerate() {
+                if axis.is_rigid() {
+                    for row in rows.iter_mut() {
+                        for i in [TH + k, THD + k] {
+                            if let Some(e) = row.get_mut(i) {
+                                *e = T::zero();
+                            }
+                        }
+                    }
+                }
             }
             let cols = (declared, N);
             let gate = engine.cfg.gate_sigma;

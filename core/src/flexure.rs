@@ -36,9 +36,32 @@ pub enum AxisModel<T> {
 }
 
 impl<T: Real> AxisModel<T> {
+    /// Whether the axis is rigid: a stationary model without driving noise (σ = 0, a
+    /// stiff mount, or a scenario without flexure about the axis), whose angle and rate
+    /// are zero at all times. The filter holds such an axis's θ and θ̇ out of the
+    /// estimation (the engine's initial factor, its measurement rows, and
+    /// [`AxisModel::transition`]): carried as states with zero variance, they took the
+    /// scale of a zero variance (1), so the variance floor, which is relative to the
+    /// scale, lifted them by an absolute 1e-12 rad² (f64) every step, and the time
+    /// update divided by those floor-sized variances (docs/diagnosis.md, "The rigid
+    /// flexure axis"). A non-stationary AR(2) without noise (a constant or drifting angle
+    /// from the prior) is not rigid.
+    pub fn is_rigid(&self) -> bool {
+        match self {
+            AxisModel::Ar(a) => a.sigma_rad == T::zero() && a.is_stationary(),
+            AxisModel::SecondOrder(g) => g.sigma_rad == T::zero(),
+        }
+    }
+
     /// Transition of the axis's two states over one period `t` (a second-order axis
-    /// was discretized at its model's period, which the engine requires to be `t`).
+    /// was discretized at its model's period, which the engine requires to be `t`). A
+    /// rigid axis's ([`AxisModel::is_rigid`]) is the identity: its states are inert in
+    /// the filter (zero, with a fixed variance no row reads), and the mode's transition
+    /// would move that variance between them.
     pub fn transition(&self, t: T) -> Matrix2<T> {
+        if self.is_rigid() {
+            return Matrix2::identity();
+        }
         match self {
             AxisModel::Ar(a) => a.transition(t),
             AxisModel::SecondOrder(g) => g.phi,
@@ -300,6 +323,41 @@ mod tests {
         assert!((exact.rate_diffusion() - 4.0 * z * w.powi(3) * s * s).abs() < 1e-20);
         let ar = AxisModel::Ar(ArAxis::from_gauss_markov(w, z, s, 0.05));
         assert_eq!(ar.rate_diffusion(), 0.0);
+    }
+
+    /// A rigid axis (σ = 0, second-order or a stationary AR(2)) holds its states: the
+    /// identity and no process noise, in both precisions; a flexing axis keeps its
+    /// mode's transition, and an AR(2) without noise that is not stationary (an angle
+    /// held from its prior) is not rigid.
+    #[test]
+    fn a_rigid_axis_holds_its_states() {
+        fn check<T: Real>() {
+            let t = T::of(0.01);
+            let (w, z) = (T::of(1.5), T::of(0.3));
+            let zero = Matrix2::<T>::zeros();
+            let rigid_gm =
+                AxisModel::SecondOrder(SecondOrderAxis::new(w, z, T::zero(), t).unwrap());
+            let ar = |a1: f64, a2: f64, s: f64| {
+                AxisModel::Ar(ArAxis {
+                    a1: T::of(a1),
+                    a2: T::of(a2),
+                    sigma_rad: T::of(s),
+                })
+            };
+            for m in [rigid_gm, ar(1.9, -0.91, 0.0)] {
+                assert!(m.is_rigid());
+                assert_eq!(m.transition(t), Matrix2::identity());
+                assert_eq!(m.noise_covariance(t), zero);
+            }
+            let g = SecondOrderAxis::new(w, z, T::of(1e-4), t).unwrap();
+            let flexing = AxisModel::SecondOrder(g);
+            assert!(!flexing.is_rigid());
+            assert_eq!(flexing.transition(t), g.phi);
+            assert!(!ar(1.9, -0.91, 1e-6).is_rigid());
+            assert!(!ar(1.0, 0.0, 0.0).is_rigid());
+        }
+        check::<f32>();
+        check::<f64>();
     }
 
     #[test]

@@ -469,3 +469,49 @@ fn the_start_holds_the_masters_smooth_errors_of_that_instant() {
         }
     }
 }
+
+/// A rigid flexure axis (σ = 0: a stiff mount, or no flexure about the axis) is held out
+/// of the filter: its θ and θ̇ stay zero with their unit placeholder variance, tied to no
+/// other state, and the engine reports θ known (σ 0). Carried as states of zero variance
+/// they took the scale of a zero variance (1), the floor then lifted them by an absolute
+/// 1e-9 rad² every time update and update (clamped variances from the first period), and
+/// they diffused into the estimation (docs/diagnosis.md, "The rigid flexure axis"). A
+/// second-order axis with σ = 0 and a stationary AR(2) without driving noise alike.
+#[test]
+fn a_rigid_flexure_axis_is_held_out_of_the_filter() {
+    use flexcal_core::flexure::SecondOrderAxis;
+    use flexcal_core::model::{N, TH, THD};
+    let mut cfg = config();
+    cfg.flexure.axes[1] =
+        AxisModel::SecondOrder(SecondOrderAxis::new(1.0, 0.2, 0.0, 0.01).unwrap());
+    cfg.flexure.axes[2] = AxisModel::Ar(ArAxis {
+        a1: 1.9,
+        a2: -0.91,
+        sigma_rad: 0.0,
+    });
+    assert!(!cfg.flexure.axes[0].is_rigid());
+    assert!(cfg.flexure.axes[1].is_rigid() && cfg.flexure.axes[2].is_rigid());
+    let mut e = Engine::<f64>::new(cfg).unwrap();
+    run_static(&mut e, 20.0);
+    let h = e.health();
+    assert_eq!((h.non_finite, h.variance_clamped), (0, 0), "{h:?}");
+    assert_eq!(e.counters().resets, 0);
+    let p = e.filter().covariance();
+    for k in [1, 2] {
+        for i in [TH + k, THD + k] {
+            assert_eq!(e.filter().state_at(i), 0.0, "state {i}");
+            for j in 0..N {
+                let inert = if i == j { 1.0 } else { 0.0 };
+                assert_eq!(p[(i, j)], inert, "P({i}, {j})");
+            }
+        }
+    }
+    let est = e.estimates();
+    assert_eq!((est.flexure_sigma[1], est.flexure_sigma[2]), (0.0, 0.0));
+    assert!(est.flexure_sigma[0] > 0.0, "{est:?}");
+    assert!(
+        est.gyro_bias.norm() < 3.0 * est.gyro_bias_sigma.norm(),
+        "{est:?}"
+    );
+    assert!(est.misalignment.norm() < 1e-5, "{est:?}");
+}

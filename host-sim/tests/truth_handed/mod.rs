@@ -14,11 +14,24 @@ pub fn calibrate(dir: &Path, scenario: &str, seed: u64) -> serde_json::Value {
 
 /// [`calibrate`] with the declared model passed through `edit` first (the channels
 /// matched, the effects asked for, the priors).
+#[allow(dead_code)] // Not every test that shares this module calls each.
 pub fn calibrate_edited(
     dir: &Path,
     scenario: &str,
     seed: u64,
     edit: impl Fn(String) -> String,
+) -> serde_json::Value {
+    calibrate_edited_with(dir, scenario, seed, edit, &[])
+}
+
+/// [`calibrate_edited`] with more arguments for `flexcal calibrate` (`--precision f32`).
+/// The calibration's outputs are in `dir/cal`.
+pub fn calibrate_edited_with(
+    dir: &Path,
+    scenario: &str,
+    seed: u64,
+    edit: impl Fn(String) -> String,
+    args: &[&str],
 ) -> serde_json::Value {
     let flexcal = || Command::new(env!("CARGO_BIN_EXE_flexcal"));
     let path = dir.join("scenario.toml");
@@ -48,6 +61,7 @@ pub fn calibrate_edited(
     let st = flexcal()
         .arg("calibrate")
         .arg(&rec)
+        .args(args)
         .arg("--config")
         .arg(&config_path)
         .arg("--out")
