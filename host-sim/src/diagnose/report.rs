@@ -479,8 +479,15 @@ fn rivals_outcome(x: &crate::diagnose::Rivals) -> String {
         (Some(a), Some(b)) => format!(" by {}", fmt_g((a - b).abs())),
         _ => String::new(),
     };
+    let kept =
+        |c: &crate::diagnose::RelearnedCandidate| c.relearned.as_ref().is_some_and(|r| r.kept);
     let verdict = if x.told_apart {
         format!("`{}` predicts it better{by}", x.chosen)
+    } else if !kept(&x.leader) && !kept(&x.rival) {
+        format!(
+            "neither model learned again is kept (each predicts the held-out part worse than the current model, or its effect is not significant in it); `{}`, which led as the model stood, stays",
+            x.chosen
+        )
     } else {
         format!(
             "the recording does not tell them apart ({}within {}); `{}`, which led as the model stood, stays",
