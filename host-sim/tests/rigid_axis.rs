@@ -11,76 +11,23 @@ mod truth_handed;
 
 use std::path::Path;
 
-/// Blind draw 108 (`flexcal simulate --blind --seed 108 --duration 300`), its smooth
-/// master errors set to zero and its flexure about y and z to σ = 0.
-const DRAW_108_RIGID_YZ: &str = r#"
-name = "blind-108"
-duration_s = 300.0
-misalignment_deg = [-0.8232958861164283, 1.7981044435974831, -0.5486930663024753]
+/// Blind draw 108 without its scale factor and smooth master errors
+/// ([`truth_handed::DRAW_108_NO_SCALE_FACTOR`]), its flexure about y and z set to σ = 0.
+fn draw_108_rigid_yz() -> String {
+    let drawn = "sigma_arcmin = [2.8161009839470856, 2.569872341345773, 1.6955511127018716]";
+    assert!(truth_handed::DRAW_108_NO_SCALE_FACTOR.contains(drawn));
+    truth_handed::DRAW_108_NO_SCALE_FACTOR
+        .replace(drawn, "sigma_arcmin = [2.8161009839470856, 0.0, 0.0]")
+}
 
-[site]
-lat_deg = -26.319820891899084
-lon_deg = 72.96403011425264
-height_m = 0.0
-
-[motion]
-roll_amp_deg = 14.24958690550754
-roll_period_s = 9.868693973223746
-pitch_amp_deg = 4.8373890673342945
-pitch_period_s = 5.29454229110231
-yaw_amp_deg = 2.827227978319735
-yaw_period_s = 7.867775017023879
-heading_deg = 325.6126614293045
-speed_mps = 1.244602536097151
-
-[lever_arm]
-r0_m = [-16.007615461588127, -9.373449498153981, -12.16958344427799]
-bending = "uniform_arc"
-
-[flexure]
-kind = "gauss_markov_axes"
-sigma_arcmin = [2.8161009839470856, 0.0, 0.0]
-omega_rad_s = [1.514507117723859, 0.7605946308200422, 2.018573388290898]
-damping = [0.15556366960054444, 0.2202553275336961, 0.3090745302255048]
-
-[slave_imu]
-rate_hz = 400.0
-gyro_bias_deg_h = [0.6894084559973646, -0.8641955229726633, -0.31226940046524365]
-accel_bias_mg = [0.2165892986287669, -0.17778605960999277, 0.3124787730763435]
-gyro_scale_ppm = [0.0, 0.0, 0.0]
-accel_scale_ppm = [0.0, 0.0, 0.0]
-gyro_nonorthogonality_urad = [0.0, 0.0, 0.0]
-accel_nonorthogonality_urad = [0.0, 0.0, 0.0]
-gyro_g_sensitivity_deg_h_per_g = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
-gyro_arw_deg_rh = 0.003372460993305398
-accel_vrw_mps_rh = 0.0013526620210295938
-
-[master]
-rate_hz = 100.0
-gives_rate = true
-velocity_noise_mps = 0.0
-attitude_noise_deg = 0.0
-rate_noise_deg_h = 0.0
-
-[master.smooth_error]
-attitude_arcsec = 0.0
-velocity_mps = 0.0
-correlation_s = 64.11472924290587
-
-[undeclared]
-master_delay_s = 0.0
-master_delay_rate = 0.0
-lever_arm_error_m = [0.0, 0.0, 0.0]
-"#;
-
-/// The calibration of [`DRAW_108_RIGID_YZ`] (seed 1) handed its truth, `matching` as
+/// The calibration of [`draw_108_rigid_yz`] (seed 1) handed its truth, `matching` as
 /// given (none: the declared one) and `args` for `flexcal calibrate`: its filter's health
 /// is clean, the misalignment and the gyro bias are within 3σ of the truth, and the
 /// rigid axes' flexure reads zero with σ zero.
 fn rigid_yz_is_healthy(dir: &Path, matching: Option<&str>, args: &[&str]) {
     let s = truth_handed::calibrate_edited_with(
         dir,
-        DRAW_108_RIGID_YZ,
+        &draw_108_rigid_yz(),
         1,
         |c| match matching {
             Some(m) => c
