@@ -444,15 +444,46 @@ fn judge_relearned(
     span_s: f64,
     opts: &Options,
 ) -> Option<(usize, RelearnedCandidate, Option<ModelEval>)> {
-    let (k, effect, run, test) = ranked.iter().find_map(|&(_, k)| {
-        let effect = *untried.get(k)?;
-        let (Some(Ok(run)), Some(test)) = (runs.get(k), tests.get(k)) else {
-            return None;
-        };
-        (!(skip_clock && effect.is_clock())).then_some((k, effect, run, test))
-    })?;
+    let (k, (effect, run, test)) = ranked
+        .iter()
+        .find_map(|&(_, k)| judgeable(k, untried, runs, tests, skip_clock).map(|u| (k, u)))?;
+    let (record, again) = judge_on_relearned(rec, from, current, effect, run, test, span_s, opts);
+    Some((k, record, again))
+}
+
+/// Candidate `k` of a round with its run and test, where it ran and may be judged on the
+/// whole model learned again: not a clock effect when `skip_clock` (the learning
+/// compensated the delay found before the filter).
+fn judgeable<'a>(
+    k: usize,
+    untried: &[Effect],
+    runs: &'a [Result<ModelEval, String>],
+    tests: &'a [CandidateTest],
+    skip_clock: bool,
+) -> Option<(Effect, &'a ModelEval, &'a CandidateTest)> {
+    let effect = *untried.get(k)?;
+    let (Some(Ok(run)), Some(test)) = (runs.get(k), tests.get(k)) else {
+        return None;
+    };
+    (!(skip_clock && effect.is_clock())).then_some((effect, run, test))
+}
+
+/// `effect` (its run's layout and its test) judged on the whole model learned again with
+/// it (`relearn`, against `current`): the record, and the model learned again, evaluated,
+/// where it is kept (its likelihood ratio over the test's threshold too).
+#[allow(clippy::too_many_arguments)]
+fn judge_on_relearned(
+    rec: &Recording,
+    from: &crate::learn::Learned,
+    current: &ModelEval,
+    effect: Effect,
+    run: &ModelEval,
+    test: &CandidateTest,
+    span_s: f64,
+    opts: &Options,
+) -> (RelearnedCandidate, Option<ModelEval>) {
     let threshold = test.threshold;
-    let outcome = relearn(
+    match relearn(
         rec,
         from,
         &run.cfg,
@@ -462,19 +493,16 @@ fn judge_relearned(
         span_s,
         opts,
         |lr| lr > threshold,
-    );
-    Some(match outcome {
-        Ok((relearned, again)) => (
-            k,
+    ) {
+        Ok((record, again)) => (
             RelearnedCandidate {
                 effect: effect.name(),
-                relearned: Some(relearned),
+                relearned: Some(record),
                 error: None,
             },
             again,
         ),
         Err(e) => (
-            k,
             RelearnedCandidate {
                 effect: effect.name(),
                 relearned: None,
@@ -482,7 +510,7 @@ fn judge_relearned(
             },
             None,
         ),
-    })
+    }
 }
 
 /// A candidate adopted on the whole model learned again with it: its index into the
@@ -518,13 +546,7 @@ fn judge_rivals(
     let margin = opts.threshold(1);
     let position = ranked.iter().position(|&(_, k)| k == leader)?;
     let &(lead_score, _) = ranked.get(position)?;
-    let usable = |k: usize| {
-        let effect = *untried.get(k)?;
-        let (Some(Ok(run)), Some(test)) = (runs.get(k), tests.get(k)) else {
-            return None;
-        };
-        (!(skip_clock && effect.is_clock())).then_some((effect, run, test))
-    };
+    let usable = |k: usize| judgeable(k, untried, runs, tests, skip_clock);
     let (lead_effect, lead_run, lead_test) = usable(leader)?;
     let (rival, (rival_effect, rival_run, rival_test)) = ranked
         .get(position + 1..)?
@@ -532,36 +554,7 @@ fn judge_rivals(
         .take_while(|&&(score, _)| lead_score - score <= margin)
         .find_map(|&(_, k)| usable(k).map(|u| (k, u)))?;
     let judge = |effect: Effect, run: &ModelEval, test: &CandidateTest| {
-        let threshold = test.threshold;
-        let outcome = relearn(
-            rec,
-            from,
-            &run.cfg,
-            current,
-            effect,
-            threshold,
-            span_s,
-            opts,
-            |lr| lr > threshold,
-        );
-        match outcome {
-            Ok((record, again)) => (
-                RelearnedCandidate {
-                    effect: effect.name(),
-                    relearned: Some(record),
-                    error: None,
-                },
-                again,
-            ),
-            Err(e) => (
-                RelearnedCandidate {
-                    effect: effect.name(),
-                    relearned: None,
-                    error: Some(e),
-                },
-                None,
-            ),
-        }
+        judge_on_relearned(rec, from, current, effect, run, test, span_s, opts)
     };
     let (lead_record, lead_again) = judge(lead_effect, lead_run, lead_test);
     let (rival_record, rival_again) = judge(rival_effect, rival_run, rival_test);
