@@ -1666,7 +1666,8 @@ fn floor_tilt_bias_product<T: Real, const S: usize>(kf: &mut Kalman<T, S>, f_b: 
         kf.cov(BA + 1, BA + 2),
     );
     let p_ba = Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz);
-    let Some(fl) = tilt_bias::floor(&p_ba, f_b.norm()) else {
+    // (The norm's square root the FPU's, not libm's software `sqrtf`: the same value.)
+    let Some(fl) = tilt_bias::floor(&p_ba, f_b.norm_squared().sqrt_fast()) else {
         return;
     };
     let u = fl.direction_b;
