@@ -1022,17 +1022,6 @@ impl<T: Real, const S: usize> Engine<T, S> {
         self.clock_t0.map_or(0.0, |t0| t - t0)
     }
 
-    /// The nominal delay of the master message stamped `t`: τ̂ + τ̂̇ (t − t₀), within
-    /// ±`MAX_DELAY_S` (τ̂̇ is zero without `clock_drift`).
-    ///
-    /// Without a clock drift fed back the rate is zero, and τ̂ + 0 · Δt is τ̂ (Δt is finite;
-    /// the one bit the sum could change is a zero τ̂'s sign, which `t − τ̂` loses): read
-    /// without the product and the sum, each a software `f64` operation on the board (a
-    /// call cost ≈ 340 instructions, six calls per master update). The rate's test is on
-    /// its bits (either zero), not a software `f64` comparison. τ̂ itself is within
-    /// ±`MAX_DELAY_S` (the Config's is checked, each fed-back one clamped) or NaN, which
-    /// the clamp returns unchanged: it is returned as it is (the clamp's two comparisons
-    /// were 0.5k instructions an update).
     /// Slave time of the master stamp `t`: `t − τ(t)`. With no delay (τ ≡ +0, the
     /// declared model's) `t` itself, as the subtraction gives it (`t − (+0) = t`, −0 and
     /// NaN included), without its software `f64` (≈ 50 instructions a call, five or six
@@ -1049,6 +1038,17 @@ impl<T: Real, const S: usize> Engine<T, S> {
         t - self.delay_at(t)
     }
 
+    /// The nominal delay of the master message stamped `t`: τ̂ + τ̂̇ (t − t₀), within
+    /// ±`MAX_DELAY_S` (τ̂̇ is zero without `clock_drift`).
+    ///
+    /// Without a clock drift fed back the rate is zero, and τ̂ + 0 · Δt is τ̂ (Δt is finite;
+    /// the one bit the sum could change is a zero τ̂'s sign, which `t − τ̂` loses): read
+    /// without the product and the sum, each a software `f64` operation on the board (a
+    /// call cost ≈ 340 instructions, six calls per master update). The rate's test is on
+    /// its bits (either zero), not a software `f64` comparison. τ̂ itself is within
+    /// ±`MAX_DELAY_S` (the Config's is checked, each fed-back one clamped) or NaN, which
+    /// the clamp returns unchanged: it is returned as it is (the clamp's two comparisons
+    /// were 0.5k instructions an update).
     fn delay_at(&self, t: f64) -> f64 {
         // The rate's bits as two words: as one (`bits << 1 == 0`) the compiler turned the
         // test back into a software `f64` comparison with zero (≈ 30 instructions).

@@ -102,9 +102,9 @@ pub struct Strapdown<T: Real> {
 /// kept as `g_hi + g_lo`, the interval as `dt_hi + dt_lo`, and g·dt is formed as
 /// `g_hi dt_hi` with its rounding error (Dekker's product, [`two_prod`]) plus the small
 /// terms (`g_lo`, the gradient's, `g_hi dt_lo`), whose own rounding is ≈ 1e-13 m/s a step
-/// in f32 (2e-11 m/s² if it were the same every step). In software f64, as before
-/// (`issue12-s19`), the model's ≈ 14 operations and conversions a sample cost the board
-/// ≈ 1.2k instructions a step.
+/// in f32 (2e-11 m/s² if it were the same every step). Evaluated in software f64 (until
+/// issue12-s19), the model's ≈ 14 operations and conversions cost the board ≈ 1.2k
+/// instructions a step.
 #[derive(Clone, Copy, Debug)]
 struct GravityRef<T: Real> {
     /// The reference: the rounded state's latitude (rad) and height (m) when it was made.
