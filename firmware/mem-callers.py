@@ -2,7 +2,7 @@
 """`memcpy`/`memset` instructions of the firmware image per call site, from QEMU's log.
 
 Usage (the log and disassembly of exec-profile.py's docstring):
-    firmware/mem-callers.py dis.txt /tmp/qemu-exec.log ELF [DEPTH]
+    firmware/mem-callers.py dis.txt /tmp/qemu-exec.log ELF [DEPTH] [--soft-float]
 
 Walks the log's executed blocks in order: each run of blocks inside `__aeabi_mem*` or
 `compiler_builtins::mem::*` is charged, with the instructions QEMU printed for them, to the
@@ -11,6 +11,10 @@ sites: address, instructions, calls, the calling function and its inlined frames
 workspace (`llvm-addr2line -i`, innermost first, DEPTH of them, default 3). Divide by the
 replay's master updates for a per-update figure (docs/performance.md, "What issue12-s11
 changed").
+
+`--soft-float`: the same for the software floating point instead (`__aeabi_d*`, `__aeabi_f2d`,
+`compiler_builtins::float::*`: the board's `f64` arithmetic, comparisons and conversions;
+docs/performance.md, "What issue12-s19 changed").
 """
 import bisect
 import collections
@@ -27,8 +31,10 @@ spec.loader.exec_module(ep)
 
 
 def main():
-    dis, log, elf = sys.argv[1:4]
-    depth = int(sys.argv[4]) if len(sys.argv) > 4 else 3
+    soft_float = '--soft-float' in sys.argv
+    args = [a for a in sys.argv[1:] if a != '--soft-float']
+    dis, log, elf = args[:3]
+    depth = int(args[3]) if len(args) > 3 else 3
     ins = ep.read_disassembly(dis)
     starts = sorted(a for a, _, _, _ in ins)
     func_at = {a: f for a, _, _, f in ins}
@@ -41,6 +47,8 @@ def main():
         return cache[a]
 
     def is_mem(f):
+        if soft_float:
+            return f.startswith(('__aeabi_d', '__aeabi_f2d')) or 'compiler_builtins::float' in f
         return f.startswith('__aeabi_mem') or 'compiler_builtins::mem' in f or f in ('memcpy', 'memset')
 
     order, blocks = ep.read_log_in_order(log)
@@ -66,7 +74,7 @@ def main():
             frames[at] = []
         elif at is not None:
             frames[at].append(line)
-    print(f"mem instructions {sum(cost.values())}")
+    print(f"{'soft-float' if soft_float else 'mem'} instructions {sum(cost.values())}")
     for s in sites:
         fr = frames.get(s, [])
         ours = [f"{re.sub(r'::h[0-9a-f]{16}', '', f)} @ {loc.split('/src/', 1)[-1]}"

@@ -42,8 +42,10 @@ pub struct RateAt<T: Real> {
     /// Raw specific force at the same time, interpolated the same way, slave body (m/s²).
     pub f_raw_b: Vector3<T>,
     /// Σ wᵢ²/dtᵢ over the interpolation weights (1/s): the rate's noise variance is
-    /// the gyro angle-random-walk density squared times this.
-    pub noise_gain: f64,
+    /// the gyro angle-random-walk density squared times this. In `T`, as the variance it
+    /// scales (in software `f64` on the board: two divisions, ≈ 0.5k instructions an
+    /// update).
+    pub noise_gain: T,
     /// How far the interpolated rate departs from the rate *at* its time when the rate
     /// diffuses (s): a rate that moves as a random walk of density `q` (rad²/s³) leaves a
     /// departure of variance `q` times this ([`departure_gain`]). The flexure's rate does,
@@ -165,9 +167,14 @@ impl<T: Real, const M: usize> AlignBuffer<T, M> {
             }
         }
         let prev = prev.unwrap_or(s);
+        // The weight's times are differences (small) in `f64`, its division in `T` (a
+        // software `f64` division on the board).
         let span = s.t - prev.t;
-        let w = if span > 0.0 { (t - prev.t) / span } else { 1.0 };
-        let wt = T::of(w);
+        let wt = if span > 0.0 {
+            T::of(t - prev.t) / T::of(span)
+        } else {
+            T::one()
+        };
         let one = T::one();
         Ok(SlaveAt {
             q_b_n: nlerp(&prev.q_b_n, &s.q_b_n, wt),
@@ -201,25 +208,30 @@ impl<T: Real, const M: usize> AlignBuffer<T, M> {
         let Some(p) = prev else {
             return Err(AlignError::TooOld);
         };
+        // The midpoints' times in `f64`, the weights from their differences in `T` (as
+        // `at`'s).
         let (m0, m1) = (p.t - p.dt / 2.0, s.t - s.dt / 2.0);
-        let lambda = if m1 > m0 { (t - m0) / (m1 - m0) } else { 1.0 };
+        let lambda = if m1 > m0 {
+            T::of(t - m0) / T::of(m1 - m0)
+        } else {
+            T::one()
+        };
         // `(x / dt_p) (1 − λ) + (y / dt_s) λ`, element by element as nalgebra's vector
         // operations form it (a loop each on the board).
-        let (w0, w1, dt0, dt1) = (T::of(1.0 - lambda), T::of(lambda), T::of(p.dt), T::of(s.dt));
+        let (w0, w1, dt0, dt1) = (T::one() - lambda, lambda, T::of(p.dt), T::of(s.dt));
         let mix = |x: &Vector3<T>, y: &Vector3<T>| {
             vec3(|i| (vget(x, i) / dt0) * w0 + (vget(y, i) / dt1) * w1)
         };
         Ok(RateAt {
             raw_b: mix(&p.dtheta_raw_b, &s.dtheta_raw_b),
             f_raw_b: mix(&p.dv_raw_b, &s.dv_raw_b),
-
-            noise_gain: (1.0 - lambda) * (1.0 - lambda) / p.dt + lambda * lambda / s.dt,
+            noise_gain: w0 * w0 / dt0 + w1 * w1 / dt1,
             departure_gain: departure_gain(
-                T::of(p.dt),
-                T::of(1.0 - lambda),
+                dt0,
+                w0,
                 T::of((s.t - s.dt - p.t).max(0.0)),
-                T::of(s.dt),
-                T::of(lambda),
+                dt1,
+                w1,
                 T::of(t - p.t),
             ),
         })

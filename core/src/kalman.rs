@@ -1298,7 +1298,10 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             .scale
             .get(a)
             .map_or(T::zero(), |&s| self.scaled_diag(a) * s * s);
-        var.max(T::zero()).sqrt_fast()
+        // Not below zero: a comparison (`max` is a software `fmaxf` call on the board,
+        // twelve σ an update).
+        let var = if var > T::zero() { var } else { T::zero() };
+        var.sqrt_fast()
     }
 
     /// Scaled covariance (dimensionless; what the numerics act on), formed from the

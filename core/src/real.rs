@@ -23,6 +23,9 @@ pub trait Real: RealField + Copy + Default + core::fmt::Debug {
     /// (`rotation::right_jacobian_series`): 0 for `f64`, 0.5 rad for `f32`, where the closed
     /// form `(1 − cos a)/a²` loses digits to cancellation anyway.
     const RIGHT_JACOBIAN_SERIES_BELOW: f64;
+    /// Veltkamp's splitter `2^⌈p/2⌉ + 1` (`p` the significand's bits): `c x − (c x − x)`
+    /// is `x`'s upper half, whose products are exact (the strapdown's error-free g·dt).
+    const SPLITTER: f64;
 
     /// Converts an `f64` constant or configuration value into this scalar (rounding for f32).
     fn of(x: f64) -> Self;
@@ -42,6 +45,7 @@ pub trait Real: RealField + Copy + Default + core::fmt::Debug {
 impl Real for f32 {
     const QUAT_EXP_SERIES_BELOW: f64 = 0.05;
     const RIGHT_JACOBIAN_SERIES_BELOW: f64 = 0.5;
+    const SPLITTER: f64 = 4097.0;
 
     #[inline]
     fn of(x: f64) -> Self {
@@ -68,6 +72,7 @@ impl Real for f32 {
 impl Real for f64 {
     const QUAT_EXP_SERIES_BELOW: f64 = 0.0;
     const RIGHT_JACOBIAN_SERIES_BELOW: f64 = 0.0;
+    const SPLITTER: f64 = 134_217_729.0;
 
     #[inline]
     fn of(x: f64) -> Self {

@@ -28,7 +28,8 @@
 //! small correction, so each is kept apart until the large terms have cancelled: the
 //! coning term is its own attitude increment, the rotation and sculling terms are
 //! rotated on their own and added after specific force and gravity have cancelled, and
-//! gravity comes from `GravityRef` (f64) with the rest of g·dt in the compensation.
+//! gravity comes from `GravityRef` (an f64 reference, g·dt as a sum of two `T`s) with the
+//! rest of g·dt in the compensation.
 //!
 //! Cost on the board (Cortex-M4F, measured as dynamic instruction counts under QEMU
 //! `-icount` with the release profile, f32): one step 12.7k → 13.2k instructions (+3.6 %;
@@ -81,7 +82,7 @@ pub struct Strapdown<T: Real> {
     /// outside, they no longer apply and are dropped.
     hi: NavState<T>,
     /// Normal gravity near the current position.
-    gravity: Option<GravityRef>,
+    gravity: Option<GravityRef<T>>,
 }
 
 /// Normal gravity (m/s²) near a reference position, to f64 accuracy: evaluated in f64
@@ -95,42 +96,71 @@ pub struct Strapdown<T: Real> {
 /// same every step — a constant vertical acceleration the filter estimates as
 /// accelerometer bias (0.06σ on `moored`, up to ≈ 0.6σ at other latitudes). The f64
 /// evaluations are ≈ 26k instructions of soft-float on the board, once per
-/// `LAT_SPAN` / `HEIGHT_SPAN` of travel; per sample, the linear model and the split of
-/// g·dt are ≈ 10 f64 operations.
+/// `LAT_SPAN` / `HEIGHT_SPAN` of travel.
+///
+/// Per sample the model is evaluated in `T`, as unevaluated sums: g at the reference is
+/// kept as `g_hi + g_lo`, the interval as `dt_hi + dt_lo`, and g·dt is formed as
+/// `g_hi dt_hi` with its rounding error (Dekker's product, [`two_prod`]) plus the small
+/// terms (`g_lo`, the gradient's, `g_hi dt_lo`), whose own rounding is ≈ 1e-13 m/s a step
+/// in f32 (2e-11 m/s² if it were the same every step). Evaluated in software f64 (until
+/// issue12-s19), the model's ≈ 14 operations and conversions cost the board ≈ 1.2k
+/// instructions a step.
 #[derive(Clone, Copy, Debug)]
-struct GravityRef {
-    lat: f64,
-    height: f64,
-    g: f64,
-    dg_dlat: f64,
-    dg_dh: f64,
+struct GravityRef<T: Real> {
+    /// The reference: the rounded state's latitude (rad) and height (m) when it was made.
+    lat: T,
+    height: T,
+    /// g at the reference, `g_hi + g_lo` (m/s²).
+    g_hi: T,
+    g_lo: T,
+    dg_dlat: T,
+    dg_dh: T,
 }
 
-impl GravityRef {
-    /// Latitude range (rad) around the reference (≈ 640 m).
-    const LAT_SPAN: f64 = 1e-4;
-    /// Height range (m) around the reference.
-    const HEIGHT_SPAN: f64 = 100.0;
+/// Latitude range (rad) around a gravity reference (≈ 640 m).
+const LAT_SPAN: f64 = 1e-4;
+/// Height range (m) around a gravity reference.
+const HEIGHT_SPAN: f64 = 100.0;
 
-    fn at(lat: f64, height: f64) -> Self {
+impl<T: Real> GravityRef<T> {
+    fn at(lat: T, height: T) -> Self {
         let g = |la: f64, h: f64| earth::normal_gravity::<f64>(la, h);
-        let (dl, dh) = (Self::LAT_SPAN, Self::HEIGHT_SPAN);
+        let (la, h) = (lat.to_f64(), height.to_f64());
+        let (dl, dh) = (LAT_SPAN, HEIGHT_SPAN);
+        let g0 = g(la, h);
+        let g_hi = T::of(g0);
         Self {
             lat,
             height,
-            g: g(lat, height),
-            dg_dlat: (g(lat + dl, height) - g(lat - dl, height)) / (2.0 * dl),
-            dg_dh: (g(lat, height + dh) - g(lat, height - dh)) / (2.0 * dh),
+            g_hi,
+            g_lo: T::of(g0 - g_hi.to_f64()),
+            dg_dlat: T::of((g(la + dl, h) - g(la - dl, h)) / (2.0 * dl)),
+            dg_dh: T::of((g(la, h + dh) - g(la, h - dh)) / (2.0 * dh)),
         }
     }
 
-    fn covers(&self, lat: f64, height: f64) -> bool {
-        (lat - self.lat).abs() <= Self::LAT_SPAN
-            && (height - self.height).abs() <= Self::HEIGHT_SPAN
+    /// The offsets (latitude, height) of the exact position `pos + lo` (`lo` the position's
+    /// low-order parts) from the reference.
+    fn offsets(&self, pos: &Position<T>, lo: &Vector3<T>) -> (T, T) {
+        (
+            (pos.lat_rad - self.lat) + lo.x,
+            (pos.height_m - self.height) + lo.z,
+        )
     }
 
-    fn value(&self, lat: f64, height: f64) -> f64 {
-        self.g + self.dg_dlat * (lat - self.lat) + self.dg_dh * (height - self.height)
+    fn covers(&self, pos: &Position<T>, lo: &Vector3<T>) -> bool {
+        let (dlat, dh) = self.offsets(pos, lo);
+        dlat.abs() <= T::of(LAT_SPAN) && dh.abs() <= T::of(HEIGHT_SPAN)
+    }
+
+    /// g·dt at `pos + lo` over `dt_hi + dt_lo` seconds, as `(hi, lo)`: `hi` the sum's
+    /// rounding, `lo` what is left.
+    fn increment(&self, pos: &Position<T>, lo: &Vector3<T>, (dt_hi, dt_lo): (T, T)) -> (T, T) {
+        let (dlat, dh) = self.offsets(pos, lo);
+        let g_small = self.g_lo + self.dg_dlat * dlat + self.dg_dh * dh;
+        let (p, p_err) = two_prod(self.g_hi, dt_hi);
+        let (s, s_err) = two_sum(p, self.g_hi * dt_lo + g_small * dt_hi);
+        (s, p_err + s_err)
     }
 }
 
@@ -160,6 +190,21 @@ fn two_sum<T: Real>(a: T, b: T) -> (T, T) {
     let bb = s - a;
     let e = (a - (s - bb)) + (b - bb);
     (s, e)
+}
+
+/// Error-free product: `p + e == a b` exactly, `p` the rounded product (Dekker's, with
+/// Veltkamp's split at `Real::SPLITTER`; no fused multiply-add needed, valid without
+/// overflow or underflow under round-to-nearest).
+#[inline]
+fn two_prod<T: Real>(a: T, b: T) -> (T, T) {
+    let split = |x: T| {
+        let c = T::of(T::SPLITTER) * x;
+        let h = c - (c - x);
+        (h, x - h)
+    };
+    let p = a * b;
+    let ((ah, al), (bh, bl)) = (split(a), split(b));
+    (p, ((ah * bh - p) + ah * bl + al * bh) + al * bl)
 }
 
 /// Adds `d` to the unevaluated sums `hi + lo`, element by element, and renormalizes
@@ -327,14 +372,14 @@ impl<T: Real> Strapdown<T> {
         let coriolis = vec3(|i| vget(&w_ie, i) * two + vget(&w_en, i)).cross(&nav.v_n);
         // Gravity increment g·dt, split into its rounded value and the rest (see
         // `GravityRef`): the rest goes straight into the compensation.
-        let lat = nav.pos.lat_rad.to_f64() + lo.pos.x.to_f64();
-        let height = nav.pos.height_m.to_f64() + lo.pos.z.to_f64();
-        if !self.gravity.is_some_and(|r| r.covers(lat, height)) {
-            self.gravity = Some(GravityRef::at(lat, height));
-        }
-        let gdt = self.gravity.map_or(0.0, |r| r.value(lat, height)) * dt_s;
-        let gdt_hi = T::of(gdt);
-        lo.v.z -= T::of(gdt - gdt_hi.to_f64());
+        let gravity = self
+            .gravity
+            .filter(|r| r.covers(&nav.pos, &lo.pos))
+            .unwrap_or_else(|| GravityRef::at(nav.pos.lat_rad, nav.pos.height_m));
+        self.gravity = Some(gravity);
+        let dt = (inc.dt, T::of(dt_s - inc.dt.to_f64()));
+        let (gdt_hi, gdt_lo) = gravity.increment(&nav.pos, &lo.pos, dt);
+        lo.v.z -= gdt_lo;
         // The net velocity change: specific force and gravity first (they cancel at rest,
         // exactly when within a factor of two), then the small terms, then one
         // compensated addition.
@@ -378,6 +423,21 @@ mod tests {
                 lon_rad: 0.0,
                 height_m: 0.0,
             },
+        }
+    }
+
+    /// Dekker's product in f32 is the exact product (which f64 holds: 48 bits).
+    #[test]
+    fn two_prod_is_exact_in_f32() {
+        for (a, b) in [
+            (9.801_f32, 0.005_f32),
+            (9.799_235_f32, 0.004_999_87_f32),
+            (-1.234_567_f32, 1.0e-3_f32),
+            (0.1_f32, 0.3_f32),
+        ] {
+            let (p, e) = two_prod(a, b);
+            assert_eq!(p, a * b);
+            assert_eq!(f64::from(p) + f64::from(e), f64::from(a) * f64::from(b));
         }
     }
 

@@ -82,7 +82,9 @@ fn least_direction<T: Real>(p: &Matrix3<T>) -> Option<Vector3<T>> {
         }
     });
     let v = adj * adj.column(k);
-    let n = v.norm();
+    // (`norm()` is libm's software `sqrtf` on the board; `sqrt_fast` the FPU's, both
+    // correctly rounded.)
+    let n = v.norm_squared().sqrt_fast();
     (n > T::zero() && n.is_finite()).then(|| v / n)
 }
 

@@ -313,7 +313,8 @@ impl<T: Real> Watch<T> {
         }
         let dt = (r.t - self.last_t).max(0.0);
         self.last_t = r.t;
-        let decay = T::of((1.0 - dt / NIS_TIME_CONSTANT_S).max(0.0));
+        // In `T`: a software `f64` division on the board, ≈ 0.2k instructions an update.
+        let decay = (T::one() - T::of(dt) / T::of(NIS_TIME_CONSTANT_S)).max(T::zero());
         let cols = self.ring.iter().find(|c| c.t == r.t).copied();
         let zero = Vector3::zeros();
         let channels = [
