@@ -386,17 +386,16 @@ fn row_major_columns<T: Real>(f: &Vector3<T>) -> SMatrix<T, 3, 9> {
 }
 
 /// Adds the augmented blocks' columns to rows of the continuous-time dynamics `f` (R×S,
-/// the rows with dynamics): the rows of δv (at `v_row`) and ψ (at `psi_row`), from the period's mean
-/// specific force `f_b` (m/s², slave body), mean rate `w_ib_b` (rad/s, slave body)
-/// and attitude `c_b_n`; the g-sensitivity's from `f_g_b` (m/s², slave body: the
-/// specific force without the flexure's motion where the master carries it, see
-/// [`crate::model::IntervalMeans::f_g_b`]).
-#[allow(clippy::too_many_arguments)]
+/// the rows with dynamics): the rows of δv (at `v_row`) and ψ (at `psi_row`), from the
+/// period's mean rate `w_ib_b` (rad/s, slave body) and attitude `c_b_n`; the
+/// accelerometer's and the g-sensitivity's from `f_g_b` (m/s², slave body: the specific
+/// force without the flexure's motion where the master carries it, see
+/// [`crate::model::IntervalMeans::f_g_b`]: the slave's own holds the bending arm's `R θ̈`,
+/// errors in variables against the velocity innovation).
 pub fn add_dynamics<T: Real, const R: usize, const S: usize>(
     f: &mut SMatrix<T, R, S>,
     aug: &Augmentation<T>,
     rows: (usize, usize),
-    f_b: &Vector3<T>,
     f_g_b: &Vector3<T>,
     w_ib_b: &Vector3<T>,
     c_b_n: &Matrix3<T>,
@@ -408,10 +407,10 @@ pub fn add_dynamics<T: Real, const R: usize, const S: usize>(
             Effect::GyroScaleFactor => add_block(f, psi_row, o, &Matrix3::from_diagonal(w_ib_b)),
             Effect::GyroMisalignment => add_block(f, psi_row, o, &nonorthogonality_columns(w_ib_b)),
             Effect::AccelScaleFactor => {
-                add_block(f, v_row, o, &(c_b_n * Matrix3::from_diagonal(f_b)))
+                add_block(f, v_row, o, &(c_b_n * Matrix3::from_diagonal(f_g_b)))
             }
             Effect::AccelMisalignment => {
-                add_block(f, v_row, o, &(c_b_n * nonorthogonality_columns(f_b)))
+                add_block(f, v_row, o, &(c_b_n * nonorthogonality_columns(f_g_b)))
             }
             Effect::GyroGSensitivity => add_block(f, psi_row, o, &row_major_columns(f_g_b)),
             // Their own decay is applied apart (`gauss_markov_states`).

@@ -375,8 +375,9 @@ pub struct Engine<T: Real, const S: usize = N> {
     master_trend: VelocityTrend<T>,
     /// The specific force the last matched master message carries to the slave, slave
     /// body (m/s², `Signature::f_carried_bs`), when the layout carries the g-sensitivity
-    /// and the master gives its rate: the g-sensitivity's dynamics column until the
-    /// next (none: the period's mean sensed force). 16 B in `f32`.
+    /// or an accelerometer block (`uses_carried_force`) and the master gives its rate:
+    /// their dynamics columns until the next (none: the period's mean sensed force). 16 B
+    /// in `f32`.
     g_force_bs: Option<Vector3<T>>,
 }
 
@@ -533,7 +534,10 @@ fn layout_has_delay<T: Real>(cfg: &EngineConfig<T>) -> bool {
 /// ([`RateFit::value`]; its current rate where they do not cover their window): a
 /// lever-arm block (`lever_arm_error`, `lever_arm_coupling`), the instrument of its
 /// columns, or the gyro's scale factor or non-orthogonality, whose rate columns are the
-/// rate there (`Signature::w_carried_bs`).
+/// rate there (`Signature::w_carried_bs`), or the accelerometer's, whose columns' carried
+/// force takes the fit's angular acceleration (`Signature::f_carried_bs`: the difference
+/// of two previous rates lags it by a period and a half, which read blind draw 107's
+/// accelerometer factors 8σ off with a 20 Hz master and a 19 m arm).
 fn layout_fits_master_rate<T: Real>(cfg: &EngineConfig<T>) -> bool {
     cfg.augmentation.blocks().any(|b| {
         matches!(
@@ -542,6 +546,25 @@ fn layout_fits_master_rate<T: Real>(cfg: &EngineConfig<T>) -> bool {
                 | Effect::LeverArmCoupling
                 | Effect::GyroScaleFactor
                 | Effect::GyroMisalignment
+                | Effect::AccelScaleFactor
+                | Effect::AccelMisalignment
+        )
+    })
+}
+
+/// Whether `cfg`'s layout has dynamics columns made of the specific force the master
+/// carries to the slave without the flexure's motion (`augment::Signature::f_carried_bs`,
+/// `model::IntervalMeans::f_g_b`): the g-sensitivity's, and the accelerometer scale
+/// factor's and non-orthogonality's. The slave's own mean force holds the bending arm's
+/// `R θ̈`, whose integral over the period is the flexure velocity the velocity innovation
+/// carries unpredicted (errors in variables): blind draw 108 (a 16, 9.4, 12 m arm, a
+/// smooth master velocity error) read an accelerometer y factor of 17 500 ppm where none
+/// was drawn (docs/diagnosis.md "Session 19").
+fn uses_carried_force<T: Real>(cfg: &EngineConfig<T>) -> bool {
+    cfg.augmentation.blocks().any(|b| {
+        matches!(
+            b.effect,
+            Effect::GyroGSensitivity | Effect::AccelScaleFactor | Effect::AccelMisalignment
         )
     })
 }
@@ -1496,7 +1519,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         }
         let aug = self.cfg.augmentation;
         if let (Some(sig), Some(_)) = (&m.sig, msg.w_ib_bm) {
-            if aug.offset(Effect::GyroGSensitivity).is_some() {
+            if uses_carried_force(&self.cfg) {
                 self.g_force_bs = Some(sig.f_carried_bs);
             }
         }
@@ -2011,11 +2034,7 @@ fn signature<T: Real>(
     // master's smooth error's increments, which a short window's slope carries, biased
     // it the other way: docs/diagnosis.md "Session 11").
     let m_bs = transpose3(&exp_so3(&e.misalignment));
-    let g_sensitivity = e
-        .cfg
-        .augmentation
-        .offset(Effect::GyroGSensitivity)
-        .is_some();
+    let carried_force = uses_carried_force(e.cfg);
     let w_nb_bm = w_eb_bm - mul3v(&transpose3(c_bm_n), &w_en);
     let (w_nb_bs, w_dot_bs) = match (slope, msg.w_ib_bm) {
         (Some(w_dot), _) => (mul3v(&m_bs, &w_nb_bm), mul3v(&m_bs, &w_dot)),
@@ -2048,19 +2067,20 @@ fn signature<T: Real>(
             c_bs_n * f_bs + here.gravity_n() - (w_ie * T::of(2.0) + w_en).cross(&slave.v_n)
         }
     };
-    // The g-sensitivity's rate column, `G f`: the slave's sensed force holds the
-    // bending arm's `R θ̈` of the moment, and the rate innovation the flexure's rate
-    // `θ̇` the filter has not predicted (errors in variables, as the delay's columns:
-    // docs/diagnosis.md "Session 12"), so `f` is the force the master carries to the
-    // arm, its lever-arm terms from the master's rates, its own acceleration once the
-    // line spans its window, rotated to the slave body by the estimated mounting. The
-    // angular acceleration is the delay's quartic slope where the layout forms it,
-    // else the difference of the master's two previous rates (the parabola's f64 sums
-    // that came before the quartic cost ~290k instructions a message on the board; the
-    // quartic, in `T`, is not measured there). The rate channel needs a master
-    // that gives its rate; without one, the slave's force (unused).
+    // The g-sensitivity's rate column, `G f`, and the accelerometer's dynamics columns
+    // (`uses_carried_force`): the slave's sensed force holds the bending arm's `R θ̈` of
+    // the moment, and the rate innovation the flexure's rate `θ̇` the filter has not
+    // predicted, the velocity innovation its velocity `R θ̇` (errors in variables, as the
+    // delay's columns: docs/diagnosis.md "Session 12", "Session 19"), so `f` is the
+    // force the master carries to the arm, its lever-arm terms from the master's rates,
+    // its own acceleration once the line spans its window, rotated to the slave body by
+    // the estimated mounting. The angular acceleration is the quartic's slope where the
+    // layout forms the fit (the delay's, the lever arm's, the scale factors'), else the
+    // difference of the master's two previous rates (the parabola's f64 sums that came
+    // before the quartic cost ~290k instructions a message on the board). The rate
+    // channel needs a master that gives its rate; without one, the slave's force.
     let f_carried_bs = match msg.w_ib_bm {
-        Some(_) if g_sensitivity => {
+        Some(_) if carried_force => {
             // With the quartic's slope the delay's velocity column is this acceleration.
             let a_c = match slope {
                 Some(_) => v_dot_n,
@@ -2069,9 +2089,11 @@ fn signature<T: Real>(
                     c_bm_n,
                     &w_nb_bm,
                     w_eb_bm,
-                    &e.past_master_rates
-                        .difference(e.cfg.filter_period_s)
-                        .unwrap_or_else(Vector3::zeros),
+                    &fit.map(|f| f.slope).unwrap_or_else(|| {
+                        e.past_master_rates
+                            .difference(e.cfg.filter_period_s)
+                            .unwrap_or_else(Vector3::zeros)
+                    }),
                     &e.cfg.lever_arm_m,
                 ),
             };

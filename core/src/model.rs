@@ -55,9 +55,10 @@ pub type StateMat<T, const S: usize = N> = SMatrix<T, S, S>;
 pub struct IntervalMeans<T: Real> {
     /// Mean specific force over the period, slave body frame (m/s²).
     pub f_b: Vector3<T>,
-    /// The specific force the g-sensitivity's dynamics column `ψ̇ += G f` is made of,
-    /// slave body (m/s²): the last matched master message's force carried to the slave
-    /// without the flexure's motion where the engine has one
+    /// The specific force the g-sensitivity's dynamics column `ψ̇ += G f` and the
+    /// accelerometer scale factor's and non-orthogonality's `δv̇ += C diag(f) s_a`,
+    /// `C N(f)` are made of, slave body (m/s²): the last matched master message's force
+    /// carried to the slave without the flexure's motion where the engine has one
     /// (`augment::Signature::f_carried_bs`), else `f_b`.
     pub f_g_b: Vector3<T>,
     /// Mean angular rate ω_ib over the period, slave body frame (rad/s).
@@ -149,7 +150,7 @@ pub fn dynamics<T: Real, const S: usize>(
 ) -> SMatrix<T, DYN, S> {
     let mut f = mat::zeros::<T, DYN, S>();
     nav_dynamics_rows(m, f.as_mut_slice());
-    augment::add_dynamics(&mut f, aug, (V, PSI), &m.f_b, &m.f_g_b, &m.w_ib_b, &m.c_b_n);
+    augment::add_dynamics(&mut f, aug, (V, PSI), &m.f_g_b, &m.w_ib_b, &m.c_b_n);
     f
 }
 
