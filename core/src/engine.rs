@@ -365,6 +365,12 @@ pub struct Engine<T: Real, const S: usize = N> {
     /// Whether `cfg`'s layout has columns that take the master's rate from its past rates
     /// ([`layout_fits_master_rate`]), kept with `cfg` as `has_delay`.
     fits_master_rate: bool,
+    /// Whether `cfg`'s layout has dynamics columns made of the master's carried force
+    /// ([`uses_carried_force`]), kept with `cfg` as `has_delay`.
+    carried_force: bool,
+    /// Which flexure axes of `cfg` are rigid ([`AxisModel::is_rigid`]: their θ, θ̇ inert),
+    /// kept with `cfg` as `has_delay` (asked at every matched channel).
+    rigid_axes: [bool; 3],
     /// The master's last angular rates (for the delay's rate column, the lever-arm
     /// columns' instrument, the g-sensitivity's rate column and the gyro scale
     /// factor's and non-orthogonality's rate columns).
@@ -569,6 +575,15 @@ fn uses_carried_force<T: Real>(cfg: &EngineConfig<T>) -> bool {
     })
 }
 
+/// Which of `cfg`'s flexure axes are rigid ([`AxisModel::is_rigid`]).
+fn rigid_axes<T: Real>(cfg: &EngineConfig<T>) -> [bool; 3] {
+    let mut rigid = [false; 3];
+    for (r, axis) in rigid.iter_mut().zip(cfg.flexure.axes.iter()) {
+        *r = axis.is_rigid();
+    }
+    rigid
+}
+
 impl<T: Real, const S: usize> Engine<T, S> {
     /// A new engine; it initializes the slave solution from the first master message.
     pub fn new(cfg: EngineConfig<T>) -> Result<Self, EngineError> {
@@ -609,6 +624,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
             frozen: false,
             has_delay: layout_has_delay(&cfg),
             fits_master_rate: layout_fits_master_rate(&cfg),
+            carried_force: uses_carried_force(&cfg),
+            rigid_axes: rigid_axes(&cfg),
             cfg,
         }
     }
@@ -657,6 +674,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
         self.frozen = false;
         self.has_delay = layout_has_delay(&cfg);
         self.fits_master_rate = layout_fits_master_rate(&cfg);
+        self.carried_force = uses_carried_force(&cfg);
+        self.rigid_axes = rigid_axes(&cfg);
         self.cfg = cfg;
         Ok(())
     }
@@ -899,13 +918,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             flexure: block(TH),
             // A rigid axis's θ is zero and known: its state's variance is a placeholder.
             flexure_sigma: Vector3::from_fn(|k, _| {
-                let rigid = self
-                    .cfg
-                    .flexure
-                    .axes
-                    .get(k)
-                    .is_some_and(AxisModel::is_rigid);
-                if rigid {
+                if self.rigid_axes.get(k).copied().unwrap_or(false) {
                     T::zero()
                 } else {
                     self.kf.sigma(TH + k)
@@ -1510,6 +1523,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             master_trend: &self.master_trend,
             has_delay: self.has_delay(),
             fits_master_rate: self.fits_master_rate,
+            carried_force: self.carried_force,
             rates_cover: self.rate_run.covers(msg.t),
             clock_dt: self.clock_dt(msg.t),
         };
@@ -1519,7 +1533,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         }
         let aug = self.cfg.augmentation;
         if let (Some(sig), Some(_)) = (&m.sig, msg.w_ib_bm) {
-            if uses_carried_force(&self.cfg) {
+            if self.carried_force {
                 self.g_force_bs = Some(sig.f_carried_bs);
             }
         }
@@ -1562,8 +1576,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 declared |= three(TH) | three(THD);
             }
             // A rigid axis's θ and θ̇ are inert (`AxisModel::is_rigid`): no column.
-            for (k, axis) in engine.cfg.flexure.axes.iter().enumerate() {
-                if axis.is_rigid() {
+            for (k, &rigid) in engine.rigid_axes.iter().enumerate() {
+                if rigid {
                     for row in rows.iter_mut() {
                         for i in [TH + k, THD + k] {
                             if let Some(e) = row.get_mut(i) {
@@ -1755,6 +1769,9 @@ struct Nominal<'a, T: Real> {
     /// Whether the layout has columns that take the master's rate from its past rates
     /// (`Engine::fits_master_rate`).
     fits_master_rate: bool,
+    /// Whether the layout's dynamics columns take the master's carried force
+    /// (`Engine::carried_force`).
+    carried_force: bool,
     /// Whether the master's past rates cover their window before this message
     /// ([`RateRun::covers`]).
     rates_cover: bool,
@@ -2034,7 +2051,7 @@ fn signature<T: Real>(
     // master's smooth error's increments, which a short window's slope carries, biased
     // it the other way: docs/diagnosis.md "Session 11").
     let m_bs = transpose3(&exp_so3(&e.misalignment));
-    let carried_force = uses_carried_force(e.cfg);
+    let carried_force = e.carried_force;
     let w_nb_bm = w_eb_bm - mul3v(&transpose3(c_bm_n), &w_en);
     let (w_nb_bs, w_dot_bs) = match (slope, msg.w_ib_bm) {
         (Some(w_dot), _) => (mul3v(&m_bs, &w_nb_bm), mul3v(&m_bs, &w_dot)),
