@@ -342,8 +342,54 @@ pub struct Relearned {
     pub kept: bool,
 }
 
+/// The learning the whole model is learned again from (`Options::relearn`) and the
+/// learnings already made in this diagnosis: `learn::relearn_with` depends on nothing
+/// but its start (`learn::relearn_start`), so a layout learned once (a leader judged
+/// against its rival, then adopted and learned again) is not learned twice; the record
+/// of the second use repeats the first learning's figures (its seconds, its runs).
+struct Relearner<'a> {
+    /// The learning.
+    from: &'a crate::learn::Learned,
+    /// Each start learned so far and what it learned.
+    done: std::cell::RefCell<Vec<(CalibConfig, crate::learn::Learned)>>,
+}
+
+impl<'a> Relearner<'a> {
+    fn new(from: &'a crate::learn::Learned) -> Self {
+        Self {
+            from,
+            done: std::cell::RefCell::new(Vec::new()),
+        }
+    }
+
+    /// `learn::relearn_with` for `layout`, made once per start.
+    fn learn(
+        &self,
+        rec: &Recording,
+        layout: &CalibConfig,
+    ) -> Result<crate::learn::Learned, String> {
+        let start = crate::learn::relearn_start(self.from, layout);
+        let found = self
+            .done
+            .borrow()
+            .iter()
+            .find(|(s, _)| *s == start)
+            .map(|(_, l)| l.clone());
+        let mut l = match found {
+            Some(l) => l,
+            None => {
+                let l = crate::learn::relearn_with(rec, self.from, layout)?;
+                self.done.borrow_mut().push((start, l.clone()));
+                l
+            }
+        };
+        crate::learn::carry_layout_delay(&mut l, layout);
+        Ok(l)
+    }
+}
+
 /// The whole model learned again from the learning's start with `layout`'s effects
-/// (`learn::relearn_with`), and `effect`'s figures with it; kept when it predicts the
+/// (`learn::relearn_with`, through `from`), and `effect`'s figures with it; kept when it predicts the
 /// held-out part better than `replaced` (the model it would replace) and `effect` is
 /// significant with it: its block's Wald statistic above `threshold`, its estimate above
 /// the floor over the recording's `span_s` and plausible, and `also` (the caller's
@@ -359,7 +405,7 @@ pub struct Relearned {
 #[allow(clippy::too_many_arguments)]
 fn relearn(
     rec: &Recording,
-    from: &crate::learn::Learned,
+    from: &Relearner,
     layout: &CalibConfig,
     replaced: &ModelEval,
     effect: Effect,
@@ -368,11 +414,11 @@ fn relearn(
     opts: &Options,
     also: impl Fn(f64) -> bool,
 ) -> Result<(Relearned, Option<ModelEval>), String> {
-    let l = crate::learn::relearn_with(rec, from, layout)?;
+    let l = from.learn(rec, layout)?;
     let delay_judged_s = if layout.clock_effect().is_some() {
         layout.initial_delay_s
     } else {
-        from.start.initial_delay_s
+        from.from.start.initial_delay_s
     };
     let with_delay = |cfg: &CalibConfig| CalibConfig {
         initial_delay_s: delay_judged_s,
@@ -434,7 +480,7 @@ fn relearn(
 #[allow(clippy::too_many_arguments)]
 fn judge_relearned(
     rec: &Recording,
-    from: &crate::learn::Learned,
+    from: &Relearner,
     current: &ModelEval,
     ranked: &[(f64, usize)],
     untried: &[Effect],
@@ -474,7 +520,7 @@ fn judgeable<'a>(
 #[allow(clippy::too_many_arguments)]
 fn judge_on_relearned(
     rec: &Recording,
-    from: &crate::learn::Learned,
+    from: &Relearner,
     current: &ModelEval,
     effect: Effect,
     run: &ModelEval,
@@ -527,12 +573,13 @@ type RelearnedAdoption = (usize, ModelEval, Relearned);
 /// held-out part better by 186 (`docs/diagnosis.md`, "Session 19"). Without a learning
 /// (the declared model is the truth) or with a clock effect in the pair where the
 /// learning compensated the delay (`skip_clock`, `judge_relearned`'s reason), nothing is
-/// judged. Returns the record and, when the winner's model learned again is kept, its
-/// index, that model evaluated and its learning's record.
+/// judged. Returns the record and, when the rival wins, its index, its model learned
+/// again, evaluated, and that learning's record: the leader stays as adopted, and the
+/// relearn after an adoption judges its model learned again against it.
 #[allow(clippy::too_many_arguments)]
 fn judge_rivals(
     rec: &Recording,
-    from: &crate::learn::Learned,
+    from: &Relearner,
     current: &ModelEval,
     leader: usize,
     ranked: &[(f64, usize)],
@@ -556,7 +603,7 @@ fn judge_rivals(
     let judge = |effect: Effect, run: &ModelEval, test: &CandidateTest| {
         judge_on_relearned(rec, from, current, effect, run, test, span_s, opts)
     };
-    let (lead_record, lead_again) = judge(lead_effect, lead_run, lead_test);
+    let (lead_record, _) = judge(lead_effect, lead_run, lead_test);
     let (rival_record, rival_again) = judge(rival_effect, rival_run, rival_test);
     // The held-out −2 ln L of a model learned again that is kept (predicts the held-out
     // part better than the current model, the effect significant in it).
@@ -571,11 +618,11 @@ fn judge_rivals(
         kept_holdout(&rival_record),
         margin,
     );
-    let (chosen, adopted) = if rival_wins {
-        (rival, rival_again.zip(rival_record.relearned.clone()))
-    } else {
-        (leader, lead_again.zip(lead_record.relearned.clone()))
-    };
+    let chosen = if rival_wins { rival } else { leader };
+    let adopted = rival_again
+        .filter(|_| rival_wins)
+        .zip(rival_record.relearned.clone())
+        .map(|(again, record)| (rival, again, record));
     let chosen_name = untried.get(chosen).map_or("", |e| e.name());
     Some((
         Rivals {
@@ -585,7 +632,7 @@ fn judge_rivals(
             chosen: chosen_name,
             told_apart,
         },
-        adopted.map(|(again, record)| (chosen, again, record)),
+        adopted,
     ))
 }
 
@@ -920,6 +967,8 @@ pub fn diagnose(
         .relearn
         .as_ref()
         .is_some_and(|f| f.start.initial_delay_s != 0.0);
+    // Each layout learned again once in this diagnosis.
+    let relearner = opts.relearn.as_ref().map(Relearner::new);
     while found.len() < opts.budget {
         let present = current.cfg.augmentation::<f64>()?;
         // The clock drift carries the delay: with it in, the delay is not tried; with the
@@ -1126,7 +1175,7 @@ pub fn diagnose(
         let mut rivals = None;
         // The model learned again that an adoption of this round is made on, if any.
         let mut adopted_relearned: Option<Relearned> = None;
-        if let (Some(leader), Some(from)) = (best.as_ref().map(|b| b.0), opts.relearn.as_ref()) {
+        if let (Some(leader), Some(from)) = (best.as_ref().map(|b| b.0), relearner.as_ref()) {
             if let Some((record, adopted)) = judge_rivals(
                 rec,
                 from,
@@ -1140,10 +1189,9 @@ pub fn diagnose(
                 span_s,
                 opts,
             ) {
-                // The rival is adopted on its model learned again; the leader stays as
-                // adopted, and the relearn after an adoption (below) judges its model
-                // learned again against it, each with the delay it was learned with.
-                let adopted = adopted.filter(|(k, _, _)| *k != leader);
+                // A rival that wins is adopted on its model learned again; a leader that
+                // stays, as adopted (the relearn after an adoption, below, judges its
+                // model learned again against it, each with the delay it was learned with).
                 if let Some((k, again, relearned)) = adopted {
                     if let Some(h) = again.holdout.clone() {
                         best = Some((k, h, Some(again)));
@@ -1156,7 +1204,7 @@ pub fn diagnose(
         // None adopted on the model as it stood: the strongest significant candidate
         // judged on the whole model learned again with it.
         let mut relearned_candidate = None;
-        if let (None, Some(from)) = (best.as_ref(), opts.relearn.as_ref()) {
+        if let (None, Some(from)) = (best.as_ref(), relearner.as_ref()) {
             if let Some((k, record, again)) = judge_relearned(
                 rec,
                 from,
@@ -1265,7 +1313,7 @@ pub fn diagnose(
                         .into(),
                 );
             }
-        } else if let Some(from) = opts.relearn.as_ref() {
+        } else if let Some(from) = relearner.as_ref() {
             let threshold = opts.threshold(effect.states());
             let outcome = relearn(
                 rec,

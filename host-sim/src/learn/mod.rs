@@ -426,6 +426,22 @@ pub fn relearn_with(
     from: &Learned,
     layout: &CalibConfig,
 ) -> Result<Learned, String> {
+    let mut l = learn(
+        rec,
+        &relearn_start(from, layout),
+        &from.start_origin,
+        from.increments,
+        &LearnOptions::default(),
+    )?;
+    carry_layout_delay(&mut l, layout);
+    Ok(l)
+}
+
+/// The model [`relearn_with`] learns from for `layout`: the learning's start with
+/// `layout`'s effects but the master's errors, and `layout`'s delay where it carries a
+/// clock effect. The learning depends on nothing else of `layout`: two layouts with the
+/// same start are learned alike (`diagnose` learns each once).
+pub fn relearn_start(from: &Learned, layout: &CalibConfig) -> CalibConfig {
     let mut start = from.start.clone();
     start.effects = layout
         .effects
@@ -436,16 +452,14 @@ pub fn relearn_with(
     if layout.clock_effect().is_some() {
         start.initial_delay_s = layout.initial_delay_s;
     }
-    let mut l = learn(
-        rec,
-        &start,
-        &from.start_origin,
-        from.increments,
-        &LearnOptions::default(),
-    )?;
+    start
+}
+
+/// Gives a learning's models (`learned_config`, `config`) `layout`'s delay, as
+/// [`relearn_with`] returns them.
+pub fn carry_layout_delay(l: &mut Learned, layout: &CalibConfig) {
     l.learned_config.initial_delay_s = layout.initial_delay_s;
     l.config.initial_delay_s = layout.initial_delay_s;
-    Ok(l)
 }
 
 /// What [`refit_competing`] learned again.
