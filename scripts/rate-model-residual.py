@@ -8,33 +8,23 @@ misses). Needs numpy. docs/diagnosis.md "Session 18" uses it.
 
     python3 scripts/rate-model-residual.py OUT/seed1   # a recording with truth.csv
 """
-import csv
 import sys
 
 import numpy as np
 
+from recording_truth import axes, column, exp_so3, load, right_jacobian, skew
+
 d = sys.argv[1]
-def load(p):
-    r = csv.reader(open(p)); h = next(r)
-    a = np.array([[float(x) for x in row] for row in r if row and not row[0].startswith('#')])
-    return h, a
 hm, m = load(d + '/master.csv'); hi, imu = load(d + '/slave_imu.csv'); ht, tr = load(d + '/truth.csv')
-col = lambda h, a, n: a[:, h.index(n)]
+col = column
 tm = col(hm, m, 't'); wm = np.stack([col(hm, m, k) for k in ('wx', 'wy', 'wz')], 1)
 ti = imu[:, 0]; dth = imu[:, 1:4]
 tt = col(ht, tr, 't')
-T = lambda n: np.stack([col(ht, tr, n + k) for k in 'xyz'], 1)
+T = lambda n: axes(ht, tr, n)
 bg, mu, th, thd = T('bg'), T('mu'), T('th'), T('thd')
 sg = T('sg')
-def skew(v): return np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-def expm(v):
-    a = np.linalg.norm(v); K = skew(v)
-    if a < 1e-12: return np.eye(3) + K
-    return np.eye(3) + np.sin(a)/a*K + (1-np.cos(a))/a**2*K@K
-def jr(v):
-    a = np.linalg.norm(v); K = skew(v)
-    if a < 1e-12: return np.eye(3) - 0.5*K
-    return np.eye(3) - (1-np.cos(a))/a**2*K + (a-np.sin(a))/a**3*K@K
+expm = exp_so3
+jr = right_jacobian
 h = ti[2] - ti[1]
 idx = {round(t / h): k for k, t in enumerate(ti)}
 rows = []
