@@ -47,7 +47,7 @@ pub const RANGES: [&str; 12] = [
     "motion: roll 5-15 deg / 6-14 s, pitch 2-6 deg / 5-12 s, yaw 1-4 deg / 4-10 s; speed 0 (half) or 1-8 m/s",
     "site: latitude -60..60 deg, longitude -180..180 deg",
     "IMU rate: 100 | 200 | 400 Hz; master rate: 10 | 20 | 50 | 100 Hz (at most the IMU rate)",
-    "undeclared effects: only when asked (--effect, one or more), each sized from its own range",
+    "undeclared effects: only when asked (--effect, one or more), each sized from its own range (bias instabilities: a random walk wandering 0.3-3 deg/h or mg over the run, log-uniform)",
 ];
 
 /// An undeclared effect a blind draw may carry, sized from its range.
@@ -71,6 +71,21 @@ pub enum BlindEffect {
     /// Master clock drift: the delay grows from 0 at the start to 10–50 ms (uniform)
     /// at the end of the run (`undeclared.master_delay_rate` = that / duration).
     ClockDrift,
+    /// Gyro bias instability: each axis's bias a random walk that wanders 0.3–3 °/h
+    /// (1σ, log-uniform) over the run (`slave_imu.gyro_bias_rw_deg_h_rh`).
+    GyroBiasInstability,
+    /// Accelerometer bias instability: each axis's bias a random walk that wanders
+    /// 0.3–3 mg (1σ, log-uniform) over the run (`slave_imu.accel_bias_rw_mg_rh`).
+    AccelBiasInstability,
+}
+
+/// The bias instabilities' wander over a blind run, 1σ per axis, in units of the
+/// drawn biases' own σ (1 °/h, 1 mg): log-uniform in this range.
+pub const BIAS_WANDER_OVER_RUN: (f64, f64) = (0.3, 3.0);
+
+/// The random walk density (per √h) that wanders `wander` (1σ) over `duration_s`.
+fn density_per_root_hour(wander: f64, duration_s: f64) -> f64 {
+    wander / (duration_s.max(1.0) / 3600.0).sqrt()
 }
 
 /// The clock drift's delay at the end of a blind run (s): uniform in this range.
@@ -175,6 +190,8 @@ pub fn draw_effects(seed: u64, duration_s: f64, effects: &[BlindEffect]) -> Scen
         gyro_g_sensitivity_deg_h_per_g: [0.0; 9],
         gyro_arw_deg_rh: gyro_arw,
         accel_vrw_mps_rh: accel_vrw,
+        gyro_bias_rw_deg_h_rh: 0.0,
+        accel_bias_rw_mg_rh: 0.0,
     };
     let mut undeclared = Undeclared::default();
     for effect in effects {
@@ -203,6 +220,16 @@ pub fn draw_effects(seed: u64, duration_s: f64, effects: &[BlindEffect]) -> Scen
             BlindEffect::ClockDrift => {
                 let (lo, hi) = CLOCK_DRIFT_END_DELAY_S;
                 undeclared.master_delay_rate = rng.gen_range(lo..=hi) / duration_s.max(1.0);
+            }
+            BlindEffect::GyroBiasInstability => {
+                let (lo, hi) = BIAS_WANDER_OVER_RUN;
+                let wander_deg_h = log_uniform(&mut rng, lo, hi);
+                imu.gyro_bias_rw_deg_h_rh = density_per_root_hour(wander_deg_h, duration_s);
+            }
+            BlindEffect::AccelBiasInstability => {
+                let (lo, hi) = BIAS_WANDER_OVER_RUN;
+                let wander_mg = log_uniform(&mut rng, lo, hi);
+                imu.accel_bias_rw_mg_rh = density_per_root_hour(wander_mg, duration_s);
             }
         }
     }
@@ -246,6 +273,8 @@ pub fn effect_name(e: BlindEffect) -> &'static str {
         BlindEffect::AccelNonorthogonality => "accel_nonorthogonality",
         BlindEffect::GyroGSensitivity => "gyro_g_sensitivity",
         BlindEffect::ClockDrift => "clock_drift",
+        BlindEffect::GyroBiasInstability => "gyro_bias_instability",
+        BlindEffect::AccelBiasInstability => "accel_bias_instability",
     }
 }
 
@@ -314,6 +343,15 @@ mod tests {
             );
             assert_eq!(s.undeclared.master_delay_s, 0.0);
             s.validate().expect("a clock drift draw validates");
+            // The instabilities wander 0.3–3 bias σ over the run, each alone.
+            let s = draw(seed, 300.0, Some(BlindEffect::GyroBiasInstability));
+            let wander = s.slave_imu.gyro_bias_rw_deg_h_rh * (300.0f64 / 3600.0).sqrt();
+            assert!((0.3..=3.0).contains(&wander), "seed {seed}: {wander} deg/h");
+            assert_eq!(s.slave_imu.accel_bias_rw_mg_rh, 0.0);
+            let s = draw(seed, 600.0, Some(BlindEffect::AccelBiasInstability));
+            let wander = s.slave_imu.accel_bias_rw_mg_rh * (600.0f64 / 3600.0).sqrt();
+            assert!((0.3..=3.0 + 1e-12).contains(&wander), "seed {seed}: {wander} mg");
+            assert_eq!(s.slave_imu.gyro_bias_rw_deg_h_rh, 0.0);
         }
     }
 

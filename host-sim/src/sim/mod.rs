@@ -11,7 +11,9 @@
 //! attitude that steps at its corrections) are injected
 //! here when the scenario asks for them, and their values are written to `truth.csv`
 //! as constant columns, so a diagnosis can be scored against them (the master's steps,
-//! which are not constant, are in the scenario itself: `sim::master_steps`).
+//! which are not constant, are in the scenario itself: `sim::master_steps`). The
+//! biases' instability (a random walk of each bias, `BiasWalk`) is in the biases'
+//! own columns, which `truth.csv` carries at every master message.
 
 pub mod blind;
 pub mod flexure;
@@ -243,6 +245,45 @@ impl SmoothMasterError {
     }
 }
 
+/// The slave's biases as they wander (`ImuSpec::gyro_bias_rw_deg_h_rh`,
+/// `accel_bias_rw_mg_rh`): a Wiener process per axis, stepped once per IMU interval
+/// from a random stream of its own (the white noises' draws are the same with or
+/// without it). The increment of interval k uses the bias at its start, then the bias
+/// takes its step; a constant bias where the density is zero.
+struct BiasWalk {
+    rng: ChaCha8Rng,
+    /// σ of one interval's step: gyro (rad/s), accelerometer (m/s²).
+    step: (f64, f64),
+    /// Current gyro (rad/s) and accelerometer (m/s²) biases.
+    bias: (Vector3<f64>, Vector3<f64>),
+}
+
+impl BiasWalk {
+    fn new(imu: &scenario::ImuSpec, initial: (Vector3<f64>, Vector3<f64>), seed: u64) -> Self {
+        let dt_h = 1.0 / imu.rate_hz / 3600.0;
+        Self {
+            rng: ChaCha8Rng::seed_from_u64(seed ^ 0x0b1a_5eed_d1f7_7a1c),
+            step: (
+                imu.gyro_bias_rw_deg_h_rh * DEG_PER_H * dt_h.sqrt(),
+                imu.accel_bias_rw_mg_rh * MG * dt_h.sqrt(),
+            ),
+            bias: initial,
+        }
+    }
+
+    /// The biases of this interval; the walk then steps to the next one's.
+    fn next(&mut self) -> (Vector3<f64>, Vector3<f64>) {
+        let now = self.bias;
+        if self.step.0 > 0.0 {
+            self.bias.0 += gauss3(&mut self.rng, self.step.0);
+        }
+        if self.step.1 > 0.0 {
+            self.bias.1 += gauss3(&mut self.rng, self.step.1);
+        }
+        now
+    }
+}
+
 fn gauss3(rng: &mut impl Rng, sigma: f64) -> Vector3<f64> {
     Vector3::from_fn(|_, _| sigma * rng.sample::<f64, _>(StandardNormal))
 }
@@ -273,7 +314,7 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
     };
     let imu = &sc.slave_imu;
     let err = ImuErrors::new(imu);
-    let (bg, ba) = (err.bg, err.ba);
+    let mut walk = BiasWalk::new(imu, (err.bg, err.ba), seed);
     let gyro_err = err.gyro_matrix();
     let accel_err = err.accel_matrix();
     let arw = imu.gyro_arw_deg_rh.to_radians() / 60.0; // rad/√s
@@ -314,10 +355,12 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
         .as_ref()
         .map(master_steps::StepError::new);
     // The message stamped `t`, from the master's truth at `t − τ` (`pos_t`: at `t`).
+    // `biases`: the slave's gyro and accelerometer biases at `t` (truth columns).
     let mut emit_master = |t: f64,
                            earth_t: &Local<f64>,
                            th: &Vector3<f64>,
                            thd: &Vector3<f64>,
+                           (bg, ba): (Vector3<f64>, Vector3<f64>),
                            rng: &mut ChaCha8Rng| {
         let tau = if und.master_delay_from_s.is_some_and(|from| t < from) {
             0.0
@@ -364,9 +407,10 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
     };
     {
         let (th, thd) = flex.at_boundary(0);
-        emit_master(0.0, &earth_m, &th, &thd, &mut rng);
+        emit_master(0.0, &earth_m, &th, &thd, walk.bias, &mut rng);
     }
     for i in 1..=n_imu {
+        let (bg, ba) = walk.next();
         let mut dth = Vector3::zeros();
         let mut dv = Vector3::zeros();
         for j in 0..SUBSTEPS {
@@ -407,7 +451,7 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
         if i % imu_per_master == 0 {
             let s = i * SUBSTEPS;
             let (th, thd) = flex.at_boundary(s);
-            emit_master(t, &earth_m, &th, &thd, &mut rng);
+            emit_master(t, &earth_m, &th, &thd, walk.bias, &mut rng);
         }
     }
     let rows = truth_t.len();

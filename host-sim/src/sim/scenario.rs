@@ -171,6 +171,22 @@ pub struct ImuSpec {
     pub gyro_arw_deg_rh: f64,
     /// Accelerometer velocity random walk (m/s/√h).
     pub accel_vrw_mps_rh: f64,
+    /// Gyro bias instability as a rate random walk (deg/h/√h, per axis): the bias
+    /// wanders from `gyro_bias_deg_h` by a Wiener process of this density, σ = RRW·√t
+    /// after t hours (the filter's `gyro_bias_rw`, rad/s/√s, is this × DEG_PER_H / 60).
+    /// Zero: a constant bias.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub gyro_bias_rw_deg_h_rh: f64,
+    /// Accelerometer bias instability as a random walk (mg/√h, per axis): the
+    /// accelerometer's counterpart of `gyro_bias_rw_deg_h_rh` (the filter's
+    /// `accel_bias_rw`, m/s²/√s, is this × MG / 60). Zero: a constant bias.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub accel_bias_rw_mg_rh: f64,
+}
+
+/// Whether a value is exactly zero (an absent effect, not written).
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// Master INS output.
@@ -360,6 +376,15 @@ impl Scenario {
                 "`slave_imu.rate_hz` ({}) must be an integer multiple of `master.rate_hz` ({})",
                 self.slave_imu.rate_hz, self.master.rate_hz
             ));
+        }
+        let densities = [
+            ("slave_imu.gyro_bias_rw_deg_h_rh", self.slave_imu.gyro_bias_rw_deg_h_rh),
+            ("slave_imu.accel_bias_rw_mg_rh", self.slave_imu.accel_bias_rw_mg_rh),
+        ];
+        for (key, v) in densities {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(format!("`{key}` must be a number ≥ 0, got {v}"));
+            }
         }
         if let Some(e) = &self.master.smooth_error {
             let ok = |v: f64| v.is_finite() && v >= 0.0;
