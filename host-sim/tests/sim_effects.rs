@@ -435,7 +435,10 @@ fn bias_instability_walks_the_biases_at_its_density_into_the_increments() {
             .collect();
         let var = steps.iter().map(|d| d * d).sum::<f64>() / steps.len() as f64;
         let ratio = var / (density * density * period_h);
-        assert!((ratio - 1.0).abs() < 0.03, "{names:?}: variance ratio {ratio}");
+        assert!(
+            (ratio - 1.0).abs() < 0.03,
+            "{names:?}: variance ratio {ratio}"
+        );
     }
     let dt = 1.0 / walking.slave_imu.rate_hz;
     let per_master = (walking.slave_imu.rate_hz / walking.master.rate_hz).round() as usize;
@@ -454,13 +457,80 @@ fn bias_instability_walks_the_biases_at_its_density_into_the_increments() {
             let f = (wb.dv_mps[axis] - wa.dv_mps[axis]) / dt;
             let gt = column(["bgx", "bgy", "bgz"][axis])[j] - bg0[axis];
             let ft = column(["bax", "bay", "baz"][axis])[j] - ba0[axis];
-            assert!((g - gt).abs() < 1e-9 * gt.abs() + 1e-15, "gyro {axis} at {k}: {g} vs {gt}");
-            assert!((f - ft).abs() < 1e-9 * ft.abs() + 1e-12, "accel {axis} at {k}: {f} vs {ft}");
+            assert!(
+                (g - gt).abs() < 1e-9 * gt.abs() + 1e-15,
+                "gyro {axis} at {k}: {g} vs {gt}"
+            );
+            assert!(
+                (f - ft).abs() < 1e-9 * ft.abs() + 1e-12,
+                "accel {axis} at {k}: {f} vs {ft}"
+            );
         }
     }
+    let density = |n: &str| truth.column(n).and_then(|c| c.first().copied());
+    assert_eq!(density("bg_rw"), Some(36.0 * DEG_PER_H / 60.0));
+    assert_eq!(density("ba_rw"), Some(60.0 * 9.806_65e-3 / 60.0));
+    assert_eq!(a.truth.as_ref().unwrap().column("bg_rw"), None);
     // Nothing else moved: the master and the rest of the truth are the same bits.
     assert_eq!(a.master, b.master);
     assert_eq!(truth.column("mux"), a.truth.as_ref().unwrap().column("mux"));
+}
+
+/// The mounting's drift: `truth.csv`'s misalignment columns take steps of variance
+/// density² × the master period (60 000 steps, the ratio's standard error 0.6 %), its
+/// density is written as `mu_rw`, and the slave's gyros sense the turn: between two
+/// messages, the slave's true rotation `C_bs^n = C_bm^n Exp(μ)` (no flexure) less the
+/// same run's without the drift is what the two IMU increments between them add less
+/// theirs (to 1 % of the turn: the increments' order and the frame's rotation are
+/// second order). The master and the biases are the same bits.
+#[test]
+fn misalignment_drift_walks_the_mounting_and_the_gyros_sense_it() {
+    let mut steady = quiet();
+    steady.duration_s = 200.0;
+    let mut drifting = steady.clone();
+    drifting.undeclared.misalignment_rw_arcmin_rh = 60.0;
+    let (a, b) = (run(&steady), run(&drifting));
+    let truth = b.truth.as_ref().unwrap();
+    let density = 60.0f64.to_radians() / 3600.0;
+    assert_eq!(truth.column("mu_rw").and_then(|c| c.first().copied()), Some(density));
+    let period_h = 1.0 / drifting.master.rate_hz / 3600.0;
+    let names = ["mux", "muy", "muz"];
+    let steps: Vec<f64> = names
+        .iter()
+        .flat_map(|n| {
+            let col = truth.column(n).unwrap();
+            col.windows(2).map(|w| w[1] - w[0]).collect::<Vec<_>>()
+        })
+        .collect();
+    let var = steps.iter().map(|d| d * d).sum::<f64>() / steps.len() as f64;
+    let per_hour = density * 60.0;
+    let ratio = var / (per_hour * per_hour * period_h);
+    assert!((ratio - 1.0).abs() < 0.03, "variance ratio {ratio}");
+    // The slave's attitude at message k of run `r` (its truth: the master's, turned by μ).
+    let slave = |r: &Recording, k: usize| {
+        let tr = r.truth.as_ref().unwrap();
+        let mu = Vector3::from_fn(|i, _| tr.column(names[i]).unwrap()[k]);
+        q(&r.master[k]) * UnitQuaternion::from_scaled_axis(mu)
+    };
+    let per_master = (drifting.slave_imu.rate_hz / drifting.master.rate_hz).round() as usize;
+    let sensed = |r: &Recording, k: usize| -> Vector3<f64> {
+        (k * per_master..(k + 1) * per_master)
+            .map(|i| Vector3::from(r.imu[i].dtheta_rad))
+            .sum()
+    };
+    for k in [1, 100, 5000, truth.len() - 2] {
+        let turn = |r: &Recording| (slave(r, k).inverse() * slave(r, k + 1)).scaled_axis();
+        let moved = turn(&b) - turn(&a);
+        let felt = sensed(&b, k) - sensed(&a, k);
+        assert!(
+            (felt - moved).norm() < 0.01 * moved.norm(),
+            "message {k}: the gyros felt {felt:?}, the slave turned {moved:?}"
+        );
+    }
+    assert_eq!(a.master, b.master);
+    let at = a.truth.as_ref().unwrap();
+    assert_eq!(truth.column("bgx"), at.column("bgx"));
+    assert_eq!(at.column("mu_rw"), None);
 }
 
 /// The scenario files with one undeclared effect load, and differ from `moored` only

@@ -47,7 +47,7 @@ pub const RANGES: [&str; 12] = [
     "motion: roll 5-15 deg / 6-14 s, pitch 2-6 deg / 5-12 s, yaw 1-4 deg / 4-10 s; speed 0 (half) or 1-8 m/s",
     "site: latitude -60..60 deg, longitude -180..180 deg",
     "IMU rate: 100 | 200 | 400 Hz; master rate: 10 | 20 | 50 | 100 Hz (at most the IMU rate)",
-    "undeclared effects: only when asked (--effect, one or more), each sized from its own range (bias instabilities: a random walk wandering 0.3-3 deg/h or mg over the run, log-uniform)",
+    "undeclared effects: only when asked (--effect, one or more), each sized from its own range (bias instabilities: a random walk wandering 0.3-3 deg/h or mg over the run; mounting drift: 0.5-5 arcmin; log-uniform)",
 ];
 
 /// An undeclared effect a blind draw may carry, sized from its range.
@@ -77,7 +77,14 @@ pub enum BlindEffect {
     /// Accelerometer bias instability: each axis's bias a random walk that wanders
     /// 0.3–3 mg (1σ, log-uniform) over the run (`slave_imu.accel_bias_rw_mg_rh`).
     AccelBiasInstability,
+    /// Mounting drift (thermal bending): the misalignment a random walk that wanders
+    /// 0.5–5′ (1σ per axis, log-uniform) over the run
+    /// (`undeclared.misalignment_rw_arcmin_rh`).
+    MisalignmentDrift,
 }
+
+/// The mounting drift's wander over a blind run, 1σ per axis (arcmin): log-uniform.
+pub const MISALIGNMENT_WANDER_ARCMIN: (f64, f64) = (0.5, 5.0);
 
 /// The bias instabilities' wander over a blind run, 1σ per axis, in units of the
 /// drawn biases' own σ (1 °/h, 1 mg): log-uniform in this range.
@@ -231,6 +238,12 @@ pub fn draw_effects(seed: u64, duration_s: f64, effects: &[BlindEffect]) -> Scen
                 let wander_mg = log_uniform(&mut rng, lo, hi);
                 imu.accel_bias_rw_mg_rh = density_per_root_hour(wander_mg, duration_s);
             }
+            BlindEffect::MisalignmentDrift => {
+                let (lo, hi) = MISALIGNMENT_WANDER_ARCMIN;
+                let wander_arcmin = log_uniform(&mut rng, lo, hi);
+                undeclared.misalignment_rw_arcmin_rh =
+                    density_per_root_hour(wander_arcmin, duration_s);
+            }
         }
     }
     let names: Vec<&str> = effects.iter().map(|e| effect_name(*e)).collect();
@@ -275,6 +288,7 @@ pub fn effect_name(e: BlindEffect) -> &'static str {
         BlindEffect::ClockDrift => "clock_drift",
         BlindEffect::GyroBiasInstability => "gyro_bias_instability",
         BlindEffect::AccelBiasInstability => "accel_bias_instability",
+        BlindEffect::MisalignmentDrift => "misalignment_drift",
     }
 }
 
@@ -350,8 +364,18 @@ mod tests {
             assert_eq!(s.slave_imu.accel_bias_rw_mg_rh, 0.0);
             let s = draw(seed, 600.0, Some(BlindEffect::AccelBiasInstability));
             let wander = s.slave_imu.accel_bias_rw_mg_rh * (600.0f64 / 3600.0).sqrt();
-            assert!((0.3..=3.0 + 1e-12).contains(&wander), "seed {seed}: {wander} mg");
+            assert!(
+                (0.3..=3.0 + 1e-12).contains(&wander),
+                "seed {seed}: {wander} mg"
+            );
             assert_eq!(s.slave_imu.gyro_bias_rw_deg_h_rh, 0.0);
+            let s = draw(seed, 300.0, Some(BlindEffect::MisalignmentDrift));
+            let wander = s.undeclared.misalignment_rw_arcmin_rh * (300.0f64 / 3600.0).sqrt();
+            assert!(
+                (0.5..=5.0 + 1e-12).contains(&wander),
+                "seed {seed}: {wander}′"
+            );
+            assert_eq!(s.slave_imu.accel_bias_rw_mg_rh, 0.0);
         }
     }
 

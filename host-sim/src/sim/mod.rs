@@ -12,8 +12,9 @@
 //! here when the scenario asks for them, and their values are written to `truth.csv`
 //! as constant columns, so a diagnosis can be scored against them (the master's steps,
 //! which are not constant, are in the scenario itself: `sim::master_steps`). The
-//! biases' instability (a random walk of each bias, `BiasWalk`) is in the biases'
-//! own columns, which `truth.csv` carries at every master message.
+//! biases' instability and the mounting's drift (random walks, `RandomWalk3`) are in
+//! the biases' and the misalignment's own columns, which `truth.csv` carries at every
+//! master message, and their densities in constant columns.
 
 pub mod blind;
 pub mod flexure;
@@ -88,20 +89,31 @@ pub fn slave_truth(
     theta: &Vector3<f64>,
     theta_rate: &Vector3<f64>,
 ) -> SlaveTruth {
-    slave_truth_at(fx, master, &Local::at(pos_m), theta, theta_rate)
+    slave_truth_at(fx, master, &Local::at(pos_m), theta, theta_rate, None)
+}
+
+/// The mounting misalignment at one instant when it drifts (`MisalignmentWalk`): its
+/// value (rad) and its rate (rad/s), which the slave's gyros sense as the flexure's.
+struct Mounting {
+    mu: Vector3<f64>,
+    mu_rate: Vector3<f64>,
 }
 
 /// [`slave_truth`] with the Earth model at the master's position (`earth_m`: its trig
 /// evaluated once, the free functions' values bit for bit in `f64`), for the simulator's
-/// sub-steps, which share one position.
+/// sub-steps, which share one position; `mounting`: a drifting misalignment in place of
+/// `fx.mu`.
 fn slave_truth_at(
     fx: &Fixed,
     master: &motion::MasterAttitude,
     earth_m: &Local<f64>,
     theta: &Vector3<f64>,
     theta_rate: &Vector3<f64>,
+    mounting: Option<&Mounting>,
 ) -> SlaveTruth {
-    let phi = fx.mu + theta;
+    let phi = mounting.map_or(fx.mu, |m| m.mu) + theta;
+    // The body turns with the flexure and with the mounting's drift.
+    let turn_rate = mounting.map_or(*theta_rate, |m| theta_rate + m.mu_rate);
     let c_bs_bm = exp_so3(&phi);
     let w_ie = earth_m.earth_rate_n();
     let w_en = earth_m.transport_rate_n(&fx.v_m);
@@ -113,7 +125,7 @@ fn slave_truth_at(
     let v_n = fx.v_m + master.c_bm_n * (w_eb_bm.cross(&r) + fx.r_bend * theta_rate);
     SlaveTruth {
         c_bs_n: master.c_bm_n * c_bs_bm,
-        w_ib_bs: c_bs_bm.transpose() * w_ib_bm + right_jacobian(&phi) * theta_rate,
+        w_ib_bs: c_bs_bm.transpose() * w_ib_bm + right_jacobian(&phi) * turn_rate,
         v_n,
         pos: earth_m.offset_position(&(master.c_bm_n * r)),
     }
@@ -149,6 +161,10 @@ struct ImuErrors {
     na: [f64; 3],
     /// Gyro g-sensitivity `G_si` (rad/s per m/s²).
     g_si: Matrix3<f64>,
+    /// Gyro bias random walk density (rad/s/√s; zero: a constant bias).
+    bg_rw: f64,
+    /// Accelerometer bias random walk density (m/s²/√s).
+    ba_rw: f64,
 }
 
 /// The symmetric non-orthogonality matrix of `[xy, xz, yz]`.
@@ -167,6 +183,9 @@ impl ImuErrors {
             na: imu.accel_nonorthogonality_urad.map(|v| v * 1e-6),
             g_si: Matrix3::from_row_slice(&imu.gyro_g_sensitivity_deg_h_per_g)
                 * (DEG_PER_H / STANDARD_GRAVITY_MPS2),
+            // Per √h → per √s: ÷ 60.
+            bg_rw: imu.gyro_bias_rw_deg_h_rh * DEG_PER_H / 60.0,
+            ba_rw: imu.accel_bias_rw_mg_rh * MG / 60.0,
         }
     }
 
@@ -184,9 +203,11 @@ impl ImuErrors {
 /// The truth columns that are constant in time, by name: the slave IMU's scale
 /// factors (`sg*`, `sa*`), non-orthogonality (`ng*`, `na*`, rad), gyro g-sensitivity
 /// (`gs11`..`gs33` row by row, rad/s per m/s²), the master delay at t = 0 (`tau`, s)
-/// and its rate (`tau_rate`, s/s), the lever-arm error (`dr*`, m, master body), and the
-/// delay's onset (`tau_from`, s) when it does not start with the recording.
-fn constant_truth(e: &ImuErrors, und: &Undeclared) -> Vec<(&'static str, f64)> {
+/// and its rate (`tau_rate`, s/s), the lever-arm error (`dr*`, m, master body), the
+/// delay's onset (`tau_from`, s) when it does not start with the recording, and the
+/// biases' random walk densities (`bg_rw`, rad/s/√s; `ba_rw`, m/s²/√s) and the
+/// mounting's (`mu_rw`, rad/√s) when they walk.
+fn constant_truth(e: &ImuErrors, und: &Undeclared, mu_rw: f64) -> Vec<(&'static str, f64)> {
     const GS: [&str; 9] = [
         "gs11", "gs12", "gs13", "gs21", "gs22", "gs23", "gs31", "gs32", "gs33",
     ];
@@ -204,6 +225,9 @@ fn constant_truth(e: &ImuErrors, und: &Undeclared) -> Vec<(&'static str, f64)> {
         .chain(vec3(["drx", "dry", "drz"], und.lever_arm_error_m))
         // The delay's onset, when it does not start with the recording (`tau` from then).
         .chain(und.master_delay_from_s.map(|from| ("tau_from", from)))
+        .chain((e.bg_rw > 0.0).then_some(("bg_rw", e.bg_rw)))
+        .chain((e.ba_rw > 0.0).then_some(("ba_rw", e.ba_rw)))
+        .chain((mu_rw > 0.0).then_some(("mu_rw", mu_rw)))
         .collect()
 }
 
@@ -245,42 +269,39 @@ impl SmoothMasterError {
     }
 }
 
-/// The slave's biases as they wander (`ImuSpec::gyro_bias_rw_deg_h_rh`,
-/// `accel_bias_rw_mg_rh`): a Wiener process per axis, stepped once per IMU interval
-/// from a random stream of its own (the white noises' draws are the same with or
-/// without it). The increment of interval k uses the bias at its start, then the bias
-/// takes its step; a constant bias where the density is zero.
-struct BiasWalk {
+/// A quantity that wanders as a Wiener process per axis (a bias's instability, a
+/// mounting's drift), stepped once per IMU interval from a random stream of its own (the
+/// white noises' draws and the other walks' are the same with or without it); constant,
+/// and drawing nothing, where its density is zero.
+struct RandomWalk3 {
     rng: ChaCha8Rng,
-    /// σ of one interval's step: gyro (rad/s), accelerometer (m/s²).
-    step: (f64, f64),
-    /// Current gyro (rad/s) and accelerometer (m/s²) biases.
-    bias: (Vector3<f64>, Vector3<f64>),
+    /// σ of one interval's step.
+    step: f64,
+    /// The value at the current interval's start.
+    value: Vector3<f64>,
 }
 
-impl BiasWalk {
-    fn new(imu: &scenario::ImuSpec, initial: (Vector3<f64>, Vector3<f64>), seed: u64) -> Self {
-        let dt_h = 1.0 / imu.rate_hz / 3600.0;
+impl RandomWalk3 {
+    /// From `initial`, at `density` per √s, stepped every `dt_s`; `stream` tells the
+    /// walks of one seed apart.
+    fn new(initial: Vector3<f64>, density: f64, dt_s: f64, seed: u64, stream: u64) -> Self {
         Self {
-            rng: ChaCha8Rng::seed_from_u64(seed ^ 0x0b1a_5eed_d1f7_7a1c),
-            step: (
-                imu.gyro_bias_rw_deg_h_rh * DEG_PER_H * dt_h.sqrt(),
-                imu.accel_bias_rw_mg_rh * MG * dt_h.sqrt(),
-            ),
-            bias: initial,
+            rng: ChaCha8Rng::seed_from_u64(seed ^ stream),
+            step: density * dt_s.sqrt(),
+            value: initial,
         }
     }
 
-    /// The biases of this interval; the walk then steps to the next one's.
-    fn next(&mut self) -> (Vector3<f64>, Vector3<f64>) {
-        let now = self.bias;
-        if self.step.0 > 0.0 {
-            self.bias.0 += gauss3(&mut self.rng, self.step.0);
-        }
-        if self.step.1 > 0.0 {
-            self.bias.1 += gauss3(&mut self.rng, self.step.1);
-        }
-        now
+    /// The step of the current interval (zero without a walk); the value moves to the
+    /// next interval's start.
+    fn step(&mut self) -> Vector3<f64> {
+        let d = if self.step > 0.0 {
+            gauss3(&mut self.rng, self.step)
+        } else {
+            Vector3::zeros()
+        };
+        self.value += d;
+        d
     }
 }
 
@@ -314,7 +335,13 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
     };
     let imu = &sc.slave_imu;
     let err = ImuErrors::new(imu);
-    let mut walk = BiasWalk::new(imu, (err.bg, err.ba), seed);
+    // The increment of an interval takes the biases at its start; the mounting drifts
+    // linearly across it (`Mounting`), continuous from one interval to the next.
+    let mut gyro_bias = RandomWalk3::new(err.bg, err.bg_rw, imu_dt, seed, 0x0b1a_5eed_d1f7_7a1c);
+    let mut accel_bias = RandomWalk3::new(err.ba, err.ba_rw, imu_dt, seed, 0x0acc_5eed_b1a5_0001);
+    let mu_rw = und.misalignment_rw_arcmin_rh.to_radians() / 60.0 / 60.0;
+    let mut mounting = RandomWalk3::new(fx.mu, mu_rw, imu_dt, seed, 0x0d21_f7ed_0f0f_1234);
+    let drifting = mu_rw > 0.0;
     let gyro_err = err.gyro_matrix();
     let accel_err = err.accel_matrix();
     let arw = imu.gyro_arw_deg_rh.to_radians() / 60.0; // rad/√s
@@ -337,13 +364,18 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
 
     // The Earth model at the master's position, evaluated again only when it moves.
     let mut earth_m = Local::at(&pos_m);
-    let boundary = |s: usize, earth_m: &Local<f64>| {
+    let boundary = |s: usize, earth_m: &Local<f64>, mounting: Option<&Mounting>| {
         let t = s as f64 * h;
         let m = sc.motion.attitude(t);
         let (th, thd) = flex.at_boundary(s);
-        (m, th, thd, slave_truth_at(&fx, &m, earth_m, &th, &thd))
+        (
+            m,
+            th,
+            thd,
+            slave_truth_at(&fx, &m, earth_m, &th, &thd, mounting),
+        )
     };
-    let (_, _, _, mut prev) = boundary(0, &earth_m);
+    let (_, _, _, mut prev) = boundary(0, &earth_m, None);
     let (tau0, tau_rate) = (und.master_delay_s, und.master_delay_rate);
     let mut smooth = sc
         .master
@@ -355,12 +387,13 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
         .as_ref()
         .map(master_steps::StepError::new);
     // The message stamped `t`, from the master's truth at `t − τ` (`pos_t`: at `t`).
-    // `biases`: the slave's gyro and accelerometer biases at `t` (truth columns).
+    // `(bg, ba, mu)`: the slave's gyro and accelerometer biases and its mounting
+    // misalignment at `t` (truth columns).
     let mut emit_master = |t: f64,
                            earth_t: &Local<f64>,
                            th: &Vector3<f64>,
                            thd: &Vector3<f64>,
-                           (bg, ba): (Vector3<f64>, Vector3<f64>),
+                           (bg, ba, mu): (Vector3<f64>, Vector3<f64>, Vector3<f64>),
                            rng: &mut ChaCha8Rng| {
         let tau = if und.master_delay_from_s.is_some_and(|from| t < from) {
             0.0
@@ -398,7 +431,7 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
             omega_ib_bm_radps: sc.master.gives_rate.then_some([w.x, w.y, w.z]),
         });
         truth_t.push(t);
-        let vals = [bg, ba, fx.mu, *th, *thd];
+        let vals = [bg, ba, mu, *th, *thd];
         for (b, v) in vals.iter().enumerate() {
             for k in 0..3 {
                 truth_cols[3 * b + k].push(v[k]);
@@ -407,10 +440,22 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
     };
     {
         let (th, thd) = flex.at_boundary(0);
-        emit_master(0.0, &earth_m, &th, &thd, walk.bias, &mut rng);
+        let now = (gyro_bias.value, accel_bias.value, mounting.value);
+        emit_master(0.0, &earth_m, &th, &thd, now, &mut rng);
     }
     for i in 1..=n_imu {
-        let (bg, ba) = walk.next();
+        let (bg, ba) = (gyro_bias.value, accel_bias.value);
+        gyro_bias.step();
+        accel_bias.step();
+        let mu_start = mounting.value;
+        let mu_step = mounting.step();
+        // The mounting `k` sub-steps (fractional) into the interval, when it drifts.
+        let mounting_at = |k: f64| {
+            drifting.then(|| Mounting {
+                mu: mu_start + mu_step * (k / SUBSTEPS as f64),
+                mu_rate: mu_step / imu_dt,
+            })
+        };
         let mut dth = Vector3::zeros();
         let mut dv = Vector3::zeros();
         for j in 0..SUBSTEPS {
@@ -418,7 +463,14 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
             let t_mid = (s as f64 + 0.5) * h;
             let m_mid = sc.motion.attitude(t_mid);
             let (th_mid, thd_mid) = flex.at_mid(s);
-            let mid = slave_truth_at(&fx, &m_mid, &earth_m, &th_mid, &thd_mid);
+            let mid = slave_truth_at(
+                &fx,
+                &m_mid,
+                &earth_m,
+                &th_mid,
+                &thd_mid,
+                mounting_at(j as f64 + 0.5).as_ref(),
+            );
             // Advance the master position over the sub-step.
             let dp = earth_m.position_rate(&fx.v_m) * h;
             pos_m.lat_rad += dp.x;
@@ -427,7 +479,7 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
             if !same_bits(&pos_m, &earth_m.pos) {
                 earth_m = Local::at(&pos_m);
             }
-            let (_, _, _, next) = boundary(s + 1, &earth_m);
+            let (_, _, _, next) = boundary(s + 1, &earth_m, mounting_at(j as f64 + 1.0).as_ref());
             // ∫ f^n dt = Δv − ∫ (g − (2ω_ie + ω_en) × v) dt, rotated to the body at mid-step.
             let earth_mid = Local::at(&mid.pos);
             let w_ie = earth_mid.earth_rate_n();
@@ -451,12 +503,13 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
         if i % imu_per_master == 0 {
             let s = i * SUBSTEPS;
             let (th, thd) = flex.at_boundary(s);
-            emit_master(t, &earth_m, &th, &thd, walk.bias, &mut rng);
+            let now = (gyro_bias.value, accel_bias.value, mounting.value);
+            emit_master(t, &earth_m, &th, &thd, now, &mut rng);
         }
     }
     let rows = truth_t.len();
     let mut truth_names: Vec<String> = varying_names.iter().map(|s| s.to_string()).collect();
-    for (name, value) in constant_truth(&err, und) {
+    for (name, value) in constant_truth(&err, und, mu_rw) {
         truth_names.push(name.to_string());
         truth_cols.push(vec![value; rows]);
     }

@@ -245,6 +245,13 @@ pub struct Undeclared {
     /// late by `master_delay_s + master_delay_rate * t` (a delay that appears in service,
     /// `docs/diagnosis.md`, "The board watches itself").
     pub master_delay_from_s: Option<f64>,
+    /// Drift of the mounting misalignment as a random walk (arcmin/√h, per axis): a
+    /// quasi-static bending (thermal) that turns the slave on its mounting, σ =
+    /// density·√t after t hours from `misalignment_deg` (the filter's
+    /// `misalignment_rw_rad_rs` is this in rad/√s: × π/180/60/60). The slave's gyros
+    /// sense the turn. Zero: a fixed mounting.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub misalignment_rw_arcmin_rh: f64,
     /// Error of the surveyed lever arm, master body frame (m): the true static arm is
     /// `lever_arm.r0_m + lever_arm_error_m`, and the truth (slave velocity, position,
     /// bending matrix R) uses it, while the recording still declares `lever_arm.r0_m`.
@@ -378,8 +385,14 @@ impl Scenario {
             ));
         }
         let densities = [
-            ("slave_imu.gyro_bias_rw_deg_h_rh", self.slave_imu.gyro_bias_rw_deg_h_rh),
-            ("slave_imu.accel_bias_rw_mg_rh", self.slave_imu.accel_bias_rw_mg_rh),
+            (
+                "slave_imu.gyro_bias_rw_deg_h_rh",
+                self.slave_imu.gyro_bias_rw_deg_h_rh,
+            ),
+            (
+                "slave_imu.accel_bias_rw_mg_rh",
+                self.slave_imu.accel_bias_rw_mg_rh,
+            ),
         ];
         for (key, v) in densities {
             if !(v.is_finite() && v >= 0.0) {
@@ -443,6 +456,12 @@ impl Undeclared {
                     "`undeclared.master_delay_from_s` must be a time ≥ 0 s, got {from}"
                 ));
             }
+        }
+        let mu_rw = self.misalignment_rw_arcmin_rh;
+        if !(mu_rw.is_finite() && mu_rw >= 0.0) {
+            return Err(format!(
+                "`undeclared.misalignment_rw_arcmin_rh` must be a number ≥ 0, got {mu_rw}"
+            ));
         }
         if let Some(v) = self.lever_arm_error_m.iter().find(|v| !v.is_finite()) {
             return Err(format!(
