@@ -147,7 +147,7 @@ pub fn run(a: &Args) -> Result<(), String> {
     report::write_plots(&a.out, &d, &rec).map_err(|e| e.to_string())?;
     drop(progress);
     println!("diagnosed {label} -> {}", a.out.display());
-    if d.found.is_empty() {
+    if d.found.is_empty() && !d.instabilities.iter().any(|t| t.named) {
         println!("  no effect found");
     }
     for t in &d.found {
@@ -183,6 +183,12 @@ pub fn run(a: &Args) -> Result<(), String> {
         if let Some(line) = report::relearn_line(r) {
             println!("  round {}: {line}", k + 1);
         }
+    }
+    for t in &d.instabilities {
+        println!(
+            "  process noise: {}",
+            report::instability_line(t, rec.truth.as_ref())
+        );
     }
     for x in &d.dropped {
         println!(

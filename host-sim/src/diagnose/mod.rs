@@ -24,6 +24,7 @@
 //! recording is frozen and predicts the innovations of the rest.
 
 pub mod evaluate;
+pub mod process_noise;
 pub mod report;
 pub mod size;
 pub mod spectrum;
@@ -670,6 +671,9 @@ pub struct Diagnosis {
     pub dropped: Vec<Dropped>,
     /// Measurement noise corrected before the search (empty when none was overstated).
     pub noise: Vec<NoiseCorrection>,
+    /// The process noises' tests (bias instabilities, a drifting mounting) on the final
+    /// model; the named ones are carried by `after`.
+    pub instabilities: Vec<process_noise::InstabilityTest>,
     /// The options used.
     pub options: Options,
 }
@@ -1346,6 +1350,13 @@ pub fn diagnose(
         }
     }
     let (after, dropped) = backward(rec, declared, current, &mut found, learned.as_ref(), opts)?;
+    // The process noises last, on the final model: an effect adopted is in the layout,
+    // so a random walk is judged on what the effects leave.
+    let (instabilities, carried) = process_noise::test_instabilities(rec, &after.cfg, opts, span_s);
+    let after = match carried {
+        Some(cfg) => evaluate_model(rec, &cfg, opts.holdout_fraction)?,
+        None => after,
+    };
     // Each effect found is reported as the final model estimates it, with the effects
     // adopted after it in the layout (two-effect blind draw 103: the arm adopted first,
     // as the model without the delay's state read it, 5.9σ off in y; with the delay
@@ -1367,6 +1378,7 @@ pub fn diagnose(
         found,
         dropped,
         noise,
+        instabilities,
         options: opts.clone(),
     })
 }

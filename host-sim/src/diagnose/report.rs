@@ -2,6 +2,7 @@
 //! `shared/formats/outputs.md`), `report.md` and its plots.
 
 use super::evaluate::ModelEval;
+use super::process_noise::InstabilityTest;
 use super::spectrum::{autocorrelation, welch};
 use super::{CandidateTest, Diagnosis, Round};
 use crate::calib::run::{Innovation, CHANNELS};
@@ -42,6 +43,101 @@ pub fn effect_truth(effect: Effect, truth: &Truth) -> Option<Vec<f64>> {
         .iter()
         .map(|n| truth.column(n).and_then(|c| c.last().copied()))
         .collect()
+}
+
+/// The drawn density of a process noise in `truth.csv` (`bg_rw`, `ba_rw`, `mu_rw`), if the
+/// simulator wrote one.
+pub fn instability_truth(t: &InstabilityTest, truth: &Truth) -> Option<f64> {
+    let column = match t.key {
+        "gyro_bias_rw" => "bg_rw",
+        "accel_bias_rw" => "ba_rw",
+        "misalignment_rw_rad_rs" => "mu_rw",
+        _ => return None,
+    };
+    truth.column(column).and_then(|c| c.last().copied())
+}
+
+/// A process noise's test in one sentence: the density found, the evidence, the
+/// decision, and the truth with the error in σ where `truth.csv` has it.
+pub fn instability_line(t: &InstabilityTest, truth: Option<&Truth>) -> String {
+    if let Some(e) = t.error.as_ref().filter(|_| t.likelihood_ratio.is_nan()) {
+        return format!("{}: not tested: {e}", t.effect);
+    }
+    let sigma = t
+        .sigma
+        .map_or("(σ unresolved)".to_string(), |s| format!("± {}", fmt_g(s)));
+    let first = t.first_part_estimate.map_or(String::new(), |v| {
+        format!(
+            "; estimated on the first part alone {}, held-out likelihood ratio {}",
+            fmt_g(v),
+            fmt_g(t.holdout_likelihood_ratio.unwrap_or(f64::NAN))
+        )
+    });
+    let decision = if t.named {
+        format!("named, the final model carries it{first}")
+    } else if t.likelihood_ratio.is_nan() || t.likelihood_ratio <= t.threshold {
+        "not significant".to_string()
+    } else if t.sigma.is_none() {
+        "not named: its size is not resolved (no curvature at the best density)".to_string()
+    } else if let Some(e) = &t.error {
+        format!("not named: the held-out check failed: {e}")
+    } else {
+        format!("not named: it does not predict the held-out part better{first}")
+    };
+    let truth = truth
+        .and_then(|tr| instability_truth(t, tr))
+        .map_or(String::new(), |v| {
+            let z = t.sigma.map_or(String::new(), |s| {
+                format!(", {:+.2}σ", (t.estimate - v) / s)
+            });
+            format!("; truth {}{z}", fmt_g(v))
+        });
+    let pass = if t.pass > 1 {
+        format!(
+            ", tested again with the densities named before it carried (pass {})",
+            t.pass
+        )
+    } else {
+        String::new()
+    };
+    format!(
+        "{}: {} = {} {sigma} {} (LR {} against none, threshold {}; the model had {}{pass}): {decision}{truth}",
+        t.effect,
+        t.key,
+        fmt_g(t.estimate),
+        t.unit,
+        fmt_g(t.likelihood_ratio),
+        fmt_g(t.threshold),
+        fmt_g(t.before)
+    )
+}
+
+/// A named process noise in `diagnosis.json`'s `effects_found`, in the blocks' shape:
+/// one-element estimate and σ, the likelihood ratio as its evidence.
+fn instability_json(t: &InstabilityTest, truth: Option<&Truth>) -> Value {
+    let mut v = json!({
+        "name": t.effect,
+        "estimate": [t.estimate],
+        "sigma": [t.sigma.unwrap_or(f64::NAN)],
+        "unit": t.unit,
+        "evidence": {
+            "statistic": "likelihood_ratio",
+            "value": t.likelihood_ratio,
+            "threshold": t.threshold,
+            "dof": 1,
+            "likelihood_ratio": t.likelihood_ratio,
+            "holdout_likelihood_ratio": t.holdout_likelihood_ratio,
+        },
+    });
+    if let (Some(tr), Some(obj)) = (
+        truth.and_then(|tr| instability_truth(t, tr)),
+        v.as_object_mut(),
+    ) {
+        obj.insert("truth".into(), json!([tr]));
+        let z = t.sigma.map_or(f64::NAN, |s| (t.estimate - tr) / s);
+        obj.insert("error_over_sigma".into(), json!([z]));
+    }
+    v
 }
 
 /// Whitened innovations (ν/√s) of one channel axis, accepted or not, in time order.
@@ -198,7 +294,13 @@ pub fn diagnosis_json(d: &Diagnosis, rec_label: &str, rec: &Recording, command: 
         "tool_version": TOOL_VERSION,
         "recording": rec_label,
         "command": command,
-        "effects_found": d.found.iter().map(|t| found_json(t, truth)).collect::<Vec<_>>(),
+        "effects_found": d
+            .found
+            .iter()
+            .map(|t| found_json(t, truth))
+            .chain(d.instabilities.iter().filter(|t| t.named).map(|t| instability_json(t, truth)))
+            .collect::<Vec<_>>(),
+        "process_noise": d.instabilities,
         "unexplained_structure": left,
         "noise_corrected": d.noise,
         "before": model_json(rec_label, rec, &d.before),
@@ -690,6 +792,14 @@ pub fn report_md(d: &Diagnosis, rec_label: &str, rec: &Recording, command: &str)
         }
         let _ = writeln!(s);
     }
+    let _ = writeln!(
+        s,
+        "## Process noise\n\nEach random walk's density searched on the whole recording with the final model, tested against none by its likelihood ratio (threshold: the χ²(1) quantile at twice a block's level, zero being on the boundary), named when, estimated on the first part alone, it also predicts the rest's innovations better (the filter running over the whole recording):\n"
+    );
+    for t in &d.instabilities {
+        let _ = writeln!(s, "- {}", instability_line(t, rec.truth.as_ref()));
+    }
+    let _ = writeln!(s);
     let supported = supported_not_adopted(d);
     if !supported.is_empty() {
         let _ = writeln!(

@@ -528,7 +528,12 @@ pub const NIS_TOLERANCE: f64 = 0.005;
 /// Vertex of the parabola through three points `(offset, −2 ln L)` spaced by one step,
 /// and the observed information of the log-value there (½ d²(−2 ln L)/du², u in natural
 /// log units: step `h`). `None` when the points are not convex.
-fn parabola_vertex(a: (f64, f64), b: (f64, f64), c: (f64, f64), h: f64) -> Option<(f64, f64)> {
+pub(crate) fn parabola_vertex(
+    a: (f64, f64),
+    b: (f64, f64),
+    c: (f64, f64),
+    h: f64,
+) -> Option<(f64, f64)> {
     let (x0, x1, x2) = (a.0, b.0, c.0);
     let (y0, y1, y2) = (a.1, b.1, c.1);
     let d01 = (y1 - y0) / (x1 - x0);

@@ -36,6 +36,13 @@ pub use scenario::{
 };
 use std::f64::consts::PI;
 
+/// The mounting's drift is a random walk sampled every this many seconds (rounded to
+/// whole IMU intervals) and linear in between: quasi-static, as a thermal bending is.
+/// Stepped at every IMU interval, a walk of 4.8e-5 rad/√s turned the slave at a white
+/// 140 °/h (its rate `δ/dt` with `δ ~ q √dt`), which the rate matching saw as noise
+/// and no thermal drift makes; at 10 s, 3 °/h.
+pub const MOUNTING_STEP_S: f64 = 10.0;
+
 /// Fine sub-steps per IMU interval for the truth integrals.
 pub const SUBSTEPS: usize = 10;
 /// One milli-g (m/s²).
@@ -92,7 +99,7 @@ pub fn slave_truth(
     slave_truth_at(fx, master, &Local::at(pos_m), theta, theta_rate, None)
 }
 
-/// The mounting misalignment at one instant when it drifts (`MisalignmentWalk`): its
+/// The mounting misalignment at one instant when it drifts (`MOUNTING_STEP_S`): its
 /// value (rad) and its rate (rad/s), which the slave's gyros sense as the flexure's.
 struct Mounting {
     mu: Vector3<f64>,
@@ -336,12 +343,17 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
     let imu = &sc.slave_imu;
     let err = ImuErrors::new(imu);
     // The increment of an interval takes the biases at its start; the mounting drifts
-    // linearly across it (`Mounting`), continuous from one interval to the next.
+    // linearly across each of its segments (`MOUNTING_STEP_S`, `Mounting`), continuous
+    // from one to the next.
     let mut gyro_bias = RandomWalk3::new(err.bg, err.bg_rw, imu_dt, seed, 0x0b1a_5eed_d1f7_7a1c);
     let mut accel_bias = RandomWalk3::new(err.ba, err.ba_rw, imu_dt, seed, 0x0acc_5eed_b1a5_0001);
     let mu_rw = und.misalignment_rw_arcmin_rh.to_radians() / 60.0 / 60.0;
-    let mut mounting = RandomWalk3::new(fx.mu, mu_rw, imu_dt, seed, 0x0d21_f7ed_0f0f_1234);
+    let segment = ((MOUNTING_STEP_S / imu_dt).round() as usize).max(1);
+    let segment_s = segment as f64 * imu_dt;
+    let mut mounting = RandomWalk3::new(fx.mu, mu_rw, segment_s, seed, 0x0d21_f7ed_0f0f_1234);
     let drifting = mu_rw > 0.0;
+    // The current segment's start and step.
+    let (mut mu_start, mut mu_step) = (fx.mu, Vector3::zeros());
     let gyro_err = err.gyro_matrix();
     let accel_err = err.accel_matrix();
     let arw = imu.gyro_arw_deg_rh.to_radians() / 60.0; // rad/√s
@@ -440,21 +452,29 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
     };
     {
         let (th, thd) = flex.at_boundary(0);
-        let now = (gyro_bias.value, accel_bias.value, mounting.value);
+        let now = (gyro_bias.value, accel_bias.value, fx.mu);
         emit_master(0.0, &earth_m, &th, &thd, now, &mut rng);
     }
     for i in 1..=n_imu {
         let (bg, ba) = (gyro_bias.value, accel_bias.value);
         gyro_bias.step();
         accel_bias.step();
-        let mu_start = mounting.value;
-        let mu_step = mounting.step();
+        let into = (i - 1) % segment;
+        if into == 0 {
+            mu_start = mounting.value;
+            mu_step = mounting.step();
+        }
         // The mounting `k` sub-steps (fractional) into the interval, when it drifts.
         let mounting_at = |k: f64| {
             drifting.then(|| Mounting {
-                mu: mu_start + mu_step * (k / SUBSTEPS as f64),
-                mu_rate: mu_step / imu_dt,
+                mu: mu_start + mu_step * ((into as f64 + k / SUBSTEPS as f64) / segment as f64),
+                mu_rate: mu_step / segment_s,
             })
+        };
+        let mu_end = if drifting {
+            mu_start + mu_step * ((into + 1) as f64 / segment as f64)
+        } else {
+            fx.mu
         };
         let mut dth = Vector3::zeros();
         let mut dv = Vector3::zeros();
@@ -503,7 +523,7 @@ pub fn simulate(sc: &Scenario, seed: u64) -> SimOutput {
         if i % imu_per_master == 0 {
             let s = i * SUBSTEPS;
             let (th, thd) = flex.at_boundary(s);
-            let now = (gyro_bias.value, accel_bias.value, mounting.value);
+            let now = (gyro_bias.value, accel_bias.value, mu_end);
             emit_master(t, &earth_m, &th, &thd, now, &mut rng);
         }
     }

@@ -248,8 +248,9 @@ pub struct Undeclared {
     /// Drift of the mounting misalignment as a random walk (arcmin/√h, per axis): a
     /// quasi-static bending (thermal) that turns the slave on its mounting, σ =
     /// density·√t after t hours from `misalignment_deg` (the filter's
-    /// `misalignment_rw_rad_rs` is this in rad/√s: × π/180/60/60). The slave's gyros
-    /// sense the turn. Zero: a fixed mounting.
+    /// `misalignment_rw_rad_rs` is this in rad/√s: × π/180/60/60), sampled every
+    /// `sim::MOUNTING_STEP_S` and linear in between. The slave's gyros sense the turn.
+    /// Zero: a fixed mounting.
     #[serde(skip_serializing_if = "is_zero")]
     pub misalignment_rw_arcmin_rh: f64,
     /// Error of the surveyed lever arm, master body frame (m): the true static arm is
