@@ -9,8 +9,9 @@
 //! declared noise and flexure right so that what is left is the effect; each test's name
 //! says `given_the_declared_model`. That the model itself can be learned from data that
 //! declares nothing is tested on blind draws (`learn_blind.rs`, `docs/model-learning.md`),
-//! and so is the whole path of a diagnosis with nothing declared, on a blind recording
-//! carrying a master delay (the last test here).
+//! and so is the whole path of a diagnosis with nothing declared, on blind recordings
+//! (a master delay, a lever-arm error, scale factors, a gyro bias instability: the tests
+//! that call `blind_diagnosis`).
 
 use flexcal_core::augment::Effect;
 use flexcal_sim::calib::config::CalibConfig;
@@ -495,4 +496,39 @@ fn an_accelerometer_scale_factor_a_gyro_one_rivals_is_told_apart_on_the_models_l
     for ((e, s), w) in t.estimate.iter().zip(&t.sigma).zip(truth) {
         assert!((e - w).abs() < 3.0 * s, "{e} ± {s}, drawn {w}");
     }
+}
+
+/// The process noises named by a diagnosis.
+fn instabilities_named(d: &Diagnosis) -> Vec<&'static str> {
+    d.instabilities
+        .iter()
+        .filter(|t| t.named)
+        .map(|t| t.effect)
+        .collect()
+}
+
+/// Blind draw 105 (300 s, no configuration) with its gyro biases walking (1.9e-7
+/// rad/s/√s: 0.83 °/h over the run): the gyro's bias instability is named, alone and
+/// within 3σ of the drawn density, and no block is adopted; the same draw with steady
+/// biases names nothing (`docs/diagnosis.md`, "Process noise").
+#[test]
+fn a_gyro_bias_instability_is_named_blind_within_3_sigma_and_nothing_on_steady_biases() {
+    use flexcal_sim::sim::blind::{draw, BlindEffect};
+    use flexcal_sim::sim::DEG_PER_H;
+    let sc = draw(105, 300.0, Some(BlindEffect::GyroBiasInstability));
+    let d = blind_diagnosis(&sc, 105);
+    assert!(found(&d).is_empty(), "{:?}", found(&d));
+    assert_eq!(instabilities_named(&d), vec!["gyro_bias_instability"]);
+    let t = d.instabilities.first().expect("the gyro's test");
+    let truth = sc.slave_imu.gyro_bias_rw_deg_h_rh * DEG_PER_H / 60.0;
+    let sigma = t.sigma.expect("resolved");
+    assert!(
+        (t.estimate - truth).abs() < 3.0 * sigma,
+        "{} ± {sigma} rad/s/√s, drawn {truth}",
+        t.estimate
+    );
+    assert_eq!(d.after.cfg.gyro_bias_rw, t.estimate);
+    let steady = blind_diagnosis(&draw(105, 300.0, None), 105);
+    assert!(found(&steady).is_empty(), "{:?}", found(&steady));
+    assert!(instabilities_named(&steady).is_empty(), "{:#?}", steady.instabilities);
 }

@@ -321,9 +321,9 @@ pub fn diagnosis_json(d: &Diagnosis, rec_label: &str, rec: &Recording, command: 
 
 /// The configuration keys the diagnosis changed or the steps before the filter found:
 /// what a user's configuration needs to reproduce the final model. The clock shift, the
-/// mounting and the master's attitude steps taken out are there when they were used
-/// (absent keys: nothing found), so a run with the recommended keys starts where the
-/// diagnosis did.
+/// mounting, the master's attitude steps taken out and the process noises' densities
+/// are there when they were used (absent keys: nothing found), so a run with the
+/// recommended keys starts where the diagnosis did.
 fn recommended_config(cfg: &crate::calib::config::CalibConfig) -> Value {
     let mut v = json!({
         "effects": cfg.effects,
@@ -341,6 +341,13 @@ fn recommended_config(cfg: &crate::calib::config::CalibConfig) -> Value {
         }
         if let Some(steps) = cfg.master_attitude_steps.as_ref().filter(|s| !s.is_empty()) {
             o.insert("master_attitude_steps".into(), json!(steps));
+        }
+        // The process noises the model carries (named by the diagnosis, or learned).
+        for q in super::process_noise::Instability::ALL {
+            let v = q.get(cfg);
+            if v > 0.0 {
+                o.insert(q.key().into(), json!(v));
+            }
         }
     }
     v
