@@ -530,5 +530,9 @@ fn a_gyro_bias_instability_is_named_blind_within_3_sigma_and_nothing_on_steady_b
     assert_eq!(d.after.cfg.gyro_bias_rw, t.estimate);
     let steady = blind_diagnosis(&draw(105, 300.0, None), 105);
     assert!(found(&steady).is_empty(), "{:?}", found(&steady));
-    assert!(instabilities_named(&steady).is_empty(), "{:#?}", steady.instabilities);
+    assert!(
+        instabilities_named(&steady).is_empty(),
+        "{:#?}",
+        steady.instabilities
+    );
 }
