@@ -152,6 +152,46 @@ impl<T: Real, const N: usize, const R: usize> Transition<T, N, R> {
         *count = u8::try_from(n).unwrap_or(u8::MAX);
     }
 
+    /// Rows `0..m` all zero, none of their columns listed (the listed ones cleared, as
+    /// [`Transition::set_row_at`] clears a row), for [`Transition::push_column`].
+    pub fn clear_rows(&mut self, m: usize) {
+        let rows = self
+            .values
+            .iter_mut()
+            .zip(&self.cols)
+            .zip(self.count.iter_mut());
+        for ((dst, cols), count) in rows.take(m) {
+            for &c in cols.get(..usize::from(*count)).unwrap_or(&[]) {
+                if let Some(e) = dst.get_mut(usize::from(c)) {
+                    *e = T::zero();
+                }
+            }
+            *count = 0;
+        }
+    }
+
+    /// Column `j` of rows `0..column.len()` set to `column`, `j` listed in each row where
+    /// it is not zero: after [`Transition::clear_rows`], columns pushed in ascending order
+    /// give the rows [`Transition::set_row_at`] gives from the same values (the error
+    /// model builds Φ's first rows a column at a time).
+    pub fn push_column(&mut self, j: usize, column: &[T]) {
+        if j >= N {
+            return;
+        }
+        let rows = self.values.iter_mut().zip(self.cols.iter_mut());
+        for (((dst, cols), count), &v) in rows.zip(self.count.iter_mut()).zip(column) {
+            if let Some(e) = dst.get_mut(j) {
+                *e = v;
+                if v != T::zero() {
+                    if let Some(c) = cols.get_mut(usize::from(*count)) {
+                        *c = j as u8;
+                    }
+                    *count = count.wrapping_add(1);
+                }
+            }
+        }
+    }
+
     /// Element `(i, j)` of Φ.
     pub fn get(&self, i: usize, j: usize) -> T {
         match self.index.iter().position(|&k| k == i) {
@@ -2026,6 +2066,32 @@ fn sweep<T: Real>(
 mod tests {
     use super::*;
     use nalgebra::{Matrix2, Vector2};
+
+    #[test]
+    fn pushed_columns_equal_rows_set_at() {
+        // Rows 0..3 of a 4 × 6 Φ from columns (zeros among them), against `set_row_at`.
+        let at = [0usize, 2, 3, 5];
+        let v = |i: usize, j: usize| {
+            if (i + j) % 3 == 0 {
+                0.0
+            } else {
+                (i * 7 + j) as f64
+            }
+        };
+        let mut by_row = Transition::<f64, 6, 4>::zeroed([0, 1, 2, 4]);
+        for i in 0..3 {
+            by_row.set_row_at(i, &at, |j| v(i, j));
+        }
+        let mut by_col = Transition::<f64, 6, 4>::zeroed([0, 1, 2, 4]);
+        by_col.set_row_at(1, &[1, 4], |_| 9.0);
+        by_col.clear_rows(3);
+        for &j in &at {
+            by_col.push_column(j, &[v(0, j), v(1, j), v(2, j)]);
+        }
+        assert_eq!(by_col.values, by_row.values);
+        assert_eq!(by_col.cols, by_row.cols);
+        assert_eq!(by_col.count, by_row.count);
+    }
 
     #[test]
     fn same_columns_is_slice_equality() {
