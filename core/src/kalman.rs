@@ -183,10 +183,12 @@ impl<T: Real, const N: usize, const R: usize> Transition<T, N, R> {
             if let Some(e) = dst.get_mut(j) {
                 *e = v;
                 if v != T::zero() {
-                    if let Some(c) = cols.get_mut(usize::from(*count)) {
+                    // The count read once (a store into `cols` could be one into it).
+                    let n = *count;
+                    if let Some(c) = cols.get_mut(usize::from(n)) {
                         *c = j as u8;
                     }
-                    *count = count.wrapping_add(1);
+                    *count = n.wrapping_add(1);
                 }
             }
         }
