@@ -170,27 +170,15 @@ impl<T: Real, const N: usize, const R: usize> Transition<T, N, R> {
         }
     }
 
-    /// Column `j` of rows `0..column.len()` set to `column`, `j` listed in each row where
-    /// it is not zero: after [`Transition::clear_rows`], columns pushed in ascending order
-    /// give the rows [`Transition::set_row_at`] gives from the same values (the error
-    /// model builds Φ's first rows a column at a time).
-    pub fn push_column(&mut self, j: usize, column: &[T]) {
-        if j >= N {
-            return;
-        }
-        let rows = self.values.iter_mut().zip(self.cols.iter_mut());
-        for (((dst, cols), count), &v) in rows.zip(self.count.iter_mut()).zip(column) {
-            if let Some(e) = dst.get_mut(j) {
-                *e = v;
-                if v != T::zero() {
-                    // The count read once (a store into `cols` could be one into it).
-                    let n = *count;
-                    if let Some(c) = cols.get_mut(usize::from(n)) {
-                        *c = j as u8;
-                    }
-                    *count = n.wrapping_add(1);
-                }
-            }
+    /// Column `j` of rows `0..6` set to `column`, `j` listed in each row where it is not
+    /// zero: after [`Transition::clear_rows`], columns pushed in ascending order give the
+    /// rows [`Transition::set_row_at`] gives from the same values (the error model builds
+    /// Φ's first six rows, δv's and ψ's, a column at a time).
+    #[inline(always)]
+    pub fn push_column(&mut self, j: usize, column: &[T; LANES]) {
+        if j < N {
+            let (values, cols) = (self.values.as_flattened_mut(), self.cols.as_flattened_mut());
+            push_column_n(values, cols, &mut self.count, (N, j), column);
         }
     }
 
@@ -254,6 +242,39 @@ pub struct Kalman<T: Real, const N: usize> {
     floor: T,
     /// Health counters.
     pub health: Health,
+}
+
+/// [`Transition::push_column`] on the rows' storage flattened, `n` columns a row, `j < n`:
+/// one copy for every state dimension. The six rows written out, each element at a
+/// fixed row offset (a loop over the rows cost the board 20 instructions an element).
+#[inline(never)]
+fn push_column_n<T: Real>(
+    values: &mut [T],
+    cols: &mut [u8],
+    count: &mut [u8],
+    (n, j): (usize, usize),
+    column: &[T; LANES],
+) {
+    let mut put = |r: usize, v: T| {
+        if let (Some(e), Some(c)) = (values.get_mut(r * n + j), count.get_mut(r)) {
+            *e = v;
+            if v != T::zero() {
+                // The count read once (a store into `cols` could be one into it).
+                let k = *c;
+                if let Some(l) = cols.get_mut(r * n + usize::from(k)) {
+                    *l = j as u8;
+                }
+                *c = k.wrapping_add(1);
+            }
+        }
+    };
+    let [v0, v1, v2, v3, v4, v5] = *column;
+    put(0, v0);
+    put(1, v1);
+    put(2, v2);
+    put(3, v3);
+    put(4, v4);
+    put(5, v5);
 }
 
 /// `dst[i] += a · src[i]` over the shorter of the two. A plain loop: on the board
@@ -2071,8 +2092,8 @@ mod tests {
 
     #[test]
     fn pushed_columns_equal_rows_set_at() {
-        // Rows 0..3 of a 4 × 6 Φ from columns (zeros among them), against `set_row_at`.
-        let at = [0usize, 2, 3, 5];
+        // Rows 0..6 of a 7 × 8 Φ from columns (zeros among them), against `set_row_at`.
+        let at = [0usize, 2, 3, 5, 7];
         let v = |i: usize, j: usize| {
             if (i + j) % 3 == 0 {
                 0.0
@@ -2080,15 +2101,16 @@ mod tests {
                 (i * 7 + j) as f64
             }
         };
-        let mut by_row = Transition::<f64, 6, 4>::zeroed([0, 1, 2, 4]);
-        for i in 0..3 {
+        let rows = [0, 1, 2, 3, 4, 5, 7];
+        let mut by_row = Transition::<f64, 8, 7>::zeroed(rows);
+        for i in 0..6 {
             by_row.set_row_at(i, &at, |j| v(i, j));
         }
-        let mut by_col = Transition::<f64, 6, 4>::zeroed([0, 1, 2, 4]);
+        let mut by_col = Transition::<f64, 8, 7>::zeroed(rows);
         by_col.set_row_at(1, &[1, 4], |_| 9.0);
-        by_col.clear_rows(3);
+        by_col.clear_rows(6);
         for &j in &at {
-            by_col.push_column(j, &[v(0, j), v(1, j), v(2, j)]);
+            by_col.push_column(j, &core::array::from_fn(|i| v(i, j)));
         }
         assert_eq!(by_col.values, by_row.values);
         assert_eq!(by_col.cols, by_row.cols);
