@@ -152,6 +152,36 @@ impl<T: Real, const N: usize, const R: usize> Transition<T, N, R> {
         *count = u8::try_from(n).unwrap_or(u8::MAX);
     }
 
+    /// Rows `0..m` all zero, none of their columns listed (the listed ones cleared, as
+    /// [`Transition::set_row_at`] clears a row), for [`Transition::push_column`].
+    pub fn clear_rows(&mut self, m: usize) {
+        let rows = self
+            .values
+            .iter_mut()
+            .zip(&self.cols)
+            .zip(self.count.iter_mut());
+        for ((dst, cols), count) in rows.take(m) {
+            for &c in cols.get(..usize::from(*count)).unwrap_or(&[]) {
+                if let Some(e) = dst.get_mut(usize::from(c)) {
+                    *e = T::zero();
+                }
+            }
+            *count = 0;
+        }
+    }
+
+    /// Column `j` of rows `0..6` set to `column`, `j` listed in each row where it is not
+    /// zero: after [`Transition::clear_rows`], columns pushed in ascending order give the
+    /// rows [`Transition::set_row_at`] gives from the same values (the error model builds
+    /// Φ's first six rows, δv's and ψ's, a column at a time).
+    #[inline(always)]
+    pub fn push_column(&mut self, j: usize, column: &[T; LANES]) {
+        if j < N {
+            let (values, cols) = (self.values.as_flattened_mut(), self.cols.as_flattened_mut());
+            push_column_n(values, cols, &mut self.count, (N, j), column);
+        }
+    }
+
     /// Element `(i, j)` of Φ.
     pub fn get(&self, i: usize, j: usize) -> T {
         match self.index.iter().position(|&k| k == i) {
@@ -212,6 +242,39 @@ pub struct Kalman<T: Real, const N: usize> {
     floor: T,
     /// Health counters.
     pub health: Health,
+}
+
+/// [`Transition::push_column`] on the rows' storage flattened, `n` columns a row, `j < n`:
+/// one copy for every state dimension. The six rows written out, each element at a
+/// fixed row offset (a loop over the rows cost the board 20 instructions an element).
+#[inline(never)]
+fn push_column_n<T: Real>(
+    values: &mut [T],
+    cols: &mut [u8],
+    count: &mut [u8],
+    (n, j): (usize, usize),
+    column: &[T; LANES],
+) {
+    let mut put = |r: usize, v: T| {
+        if let (Some(e), Some(c)) = (values.get_mut(r * n + j), count.get_mut(r)) {
+            *e = v;
+            if v != T::zero() {
+                // The count read once (a store into `cols` could be one into it).
+                let k = *c;
+                if let Some(l) = cols.get_mut(r * n + usize::from(k)) {
+                    *l = j as u8;
+                }
+                *c = k.wrapping_add(1);
+            }
+        }
+    };
+    let [v0, v1, v2, v3, v4, v5] = *column;
+    put(0, v0);
+    put(1, v1);
+    put(2, v2);
+    put(3, v3);
+    put(4, v4);
+    put(5, v5);
 }
 
 /// `dst[i] += a · src[i]` over the shorter of the two. A plain loop: on the board
@@ -680,18 +743,22 @@ fn orthogonalize_n<T: Real>(w: Gram<'_, T>, scratch: [&mut [T]; 4], floor: T, t0
                 if let Some((w2, q2, lo2, u2)) = rows.next() {
                     let (w_0, w_1, w_2) = dot3([&*w0, &*w1, &*w2], pivot.cw);
                     let (q_0, q_1, q_2) = dot3([&*q0, &*q1, &*q2], pivot.cq);
-                    let a = [(w_0 + q_0) * inv, (w_1 + q_1) * inv, (w_2 + q_2) * inv];
-                    (*u0, *u1, *u2) = (a[0], a[1], a[2]);
-                    if a.iter().all(|&v| v != T::zero()) {
-                        axpy3([w0, w1, w2], a, pivot.w);
-                        axpy3([q0, q1, q2], a, pivot.q);
+                    let (a0, a1, a2) = ((w_0 + q_0) * inv, (w_1 + q_1) * inv, (w_2 + q_2) * inv);
+                    (*u0, *u1, *u2) = (a0, a1, a2);
+                    // Three comparisons written out: `[a0, a1, a2].iter().all(..)` was a
+                    // loop over the array stored on the stack (≈ 0.4k instructions an
+                    // update on the board).
+                    let z = T::zero();
+                    if a0 != z && a1 != z && a2 != z {
+                        axpy3([w0, w1, w2], [a0, a1, a2], pivot.w);
+                        axpy3([q0, q1, q2], [a0, a1, a2], pivot.q);
                         *lo0 = (*lo0).min(pivot.l);
                         *lo1 = (*lo1).min(pivot.l);
                         *lo2 = (*lo2).min(pivot.l);
                     } else {
-                        pivot.reduce(w0, q0, lo0, a[0]);
-                        pivot.reduce(w1, q1, lo1, a[1]);
-                        pivot.reduce(w2, q2, lo2, a[2]);
+                        pivot.reduce(w0, q0, lo0, a0);
+                        pivot.reduce(w1, q1, lo1, a1);
+                        pivot.reduce(w2, q2, lo2, a2);
                     }
                     continue;
                 }
@@ -2022,6 +2089,33 @@ fn sweep<T: Real>(
 mod tests {
     use super::*;
     use nalgebra::{Matrix2, Vector2};
+
+    #[test]
+    fn pushed_columns_equal_rows_set_at() {
+        // Rows 0..6 of a 7 × 8 Φ from columns (zeros among them), against `set_row_at`.
+        let at = [0usize, 2, 3, 5, 7];
+        let v = |i: usize, j: usize| {
+            if (i + j) % 3 == 0 {
+                0.0
+            } else {
+                (i * 7 + j) as f64
+            }
+        };
+        let rows = [0, 1, 2, 3, 4, 5, 7];
+        let mut by_row = Transition::<f64, 8, 7>::zeroed(rows);
+        for i in 0..6 {
+            by_row.set_row_at(i, &at, |j| v(i, j));
+        }
+        let mut by_col = Transition::<f64, 8, 7>::zeroed(rows);
+        by_col.set_row_at(1, &[1, 4], |_| 9.0);
+        by_col.clear_rows(6);
+        for &j in &at {
+            by_col.push_column(j, &core::array::from_fn(|i| v(i, j)));
+        }
+        assert_eq!(by_col.values, by_row.values);
+        assert_eq!(by_col.cols, by_row.cols);
+        assert_eq!(by_col.count, by_row.count);
+    }
 
     #[test]
     fn same_columns_is_slice_equality() {
