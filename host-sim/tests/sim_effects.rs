@@ -477,9 +477,9 @@ fn bias_instability_walks_the_biases_at_its_density_into_the_increments() {
     assert_eq!(truth.column("mux"), a.truth.as_ref().unwrap().column("mux"));
 }
 
-/// The mounting's drift: sampled every `MOUNTING_STEP_S` (10 s) and linear in between,
-/// `truth.csv`'s misalignment columns take steps of variance density² × 10 s from one
-/// segment to the next (2 000 s: 600 steps, the ratio's standard error 5.8 %) and lie on
+/// The mounting's drift: sampled every `MOUNTING_STEP_S` (60 s) and linear in between,
+/// `truth.csv`'s misalignment columns take steps of variance density² × 60 s from one
+/// segment to the next (6 000 s: 300 steps, the ratio's standard error 8.2 %) and lie on
 /// the line between; its density is written as `mu_rw`, and the slave's gyros sense the
 /// turn: between two messages, the slave's true rotation `C_bs^n = C_bm^n Exp(μ)` (no
 /// flexure) less the same run's without the drift is what the two IMU increments
@@ -488,7 +488,8 @@ fn bias_instability_walks_the_biases_at_its_density_into_the_increments() {
 #[test]
 fn misalignment_drift_walks_the_mounting_and_the_gyros_sense_it() {
     let mut steady = quiet();
-    steady.duration_s = 2000.0;
+    steady.duration_s = 6000.0;
+    steady.slave_imu.rate_hz = 100.0;
     let mut drifting = steady.clone();
     drifting.undeclared.misalignment_rw_arcmin_rh = 60.0;
     let (a, b) = (run(&steady), run(&drifting));
@@ -516,7 +517,7 @@ fn misalignment_drift_walks_the_mounting_and_the_gyros_sense_it() {
     let var = steps.iter().map(|d| d * d).sum::<f64>() / steps.len() as f64;
     let ratio = var / (density * density * MOUNTING_STEP_S);
     assert!(
-        (ratio - 1.0).abs() < 0.2,
+        (ratio - 1.0).abs() < 0.3,
         "variance ratio {ratio} over {} steps",
         steps.len()
     );
@@ -532,7 +533,10 @@ fn misalignment_drift_walks_the_mounting_and_the_gyros_sense_it() {
             .map(|i| Vector3::from(r.imu[i].dtheta_rad))
             .sum()
     };
-    for k in [1, 100, 5000, truth.len() - 2] {
+    // Within the first 50 s: later, the two runs' mountings differ by up to a degree, and
+    // the master's turn seen in the two bodies differs by that much of it, whose second
+    // order (5 % of the drift's turn after 6 000 s) is not what this checks.
+    for k in [1, 100, 1000, 5000] {
         let turn = |r: &Recording| (slave(r, k).inverse() * slave(r, k + 1)).scaled_axis();
         let moved = turn(&b) - turn(&a);
         let felt = sensed(&b, k) - sensed(&a, k);
