@@ -101,6 +101,20 @@ impl Instability {
         c
     }
 
+    /// The channel whose three axes the walk drives directly (`CHANNELS` index), if one
+    /// does: an accelerometer bias's walk integrates into each velocity axis, the
+    /// mounting's turns each attitude axis. A gyro bias's walk reaches the channels
+    /// through tilt and heading in shares the motion sets (blind draw 105, drawn 1.5e-7
+    /// rad/s/√s: a likelihood ratio of 1 024 of which the attitude axes hold 11, −3.5
+    /// and 16): none.
+    fn channel(self) -> Option<usize> {
+        match self {
+            Instability::GyroBias => None,
+            Instability::Misalignment => Some(1),
+            Instability::AccelBias => Some(0),
+        }
+    }
+
     /// The density that moves the state by its prior σ over `span_s`: the centre of the
     /// ladder the search starts from (the model learner's `per_window` size).
     fn scale(self, cfg: &CalibConfig, span_s: f64) -> f64 {
@@ -112,6 +126,14 @@ impl Instability {
         prior / span_s.max(1.0).sqrt()
     }
 }
+
+/// A walk whose wander over the recording (`density × √span`) exceeds this many prior
+/// σ of its state is not taken for an instability (prior-data conflict, as a block's
+/// estimate beyond `PLAUSIBLE_PRIORS`): looser than a block's 3, for a sensor's in-run
+/// wander may exceed its turn-on spread (the blind draws wander 0.3–3), but not by the
+/// 40 prior σ of the gyro walk that follows the 37 s master velocity wave of
+/// `tests/diagnose.rs` (1.8e-5 rad/s/√s over 120 s against 1 °/h).
+pub const PLAUSIBLE_WANDER: f64 = 10.0;
 
 /// The ladder's sizes, per `Instability::scale`.
 const LADDER: [f64; 4] = [1e-2, 1e-1, 1.0, 10.0];
@@ -141,6 +163,20 @@ pub struct InstabilityTest {
     pub sigma: Option<f64>,
     /// −2 log-likelihood at density 0 minus at the estimate.
     pub likelihood_ratio: f64,
+    /// The walk's wander over the recording in prior σ of its state (`density × √span
+    /// / prior σ`); beyond `PLAUSIBLE_WANDER` it is not significant.
+    pub wander_over_prior: f64,
+    /// The same on each axis of the channel the walk drives directly
+    /// (`Instability::channel`; absent when it drives none, when the test was not
+    /// significant or a run failed). One density serves
+    /// the three axes, so a walk gains on each; a slow error on one axis that a walk
+    /// only follows (the 37 s master velocity wave of `tests/diagnose.rs`: an
+    /// accelerometer walk's likelihood ratio 34 902, all of it from the north velocity)
+    /// does not.
+    pub axis_gains: Option<[f64; 3]>,
+    /// The gain per channel (velocity, attitude, angular rate) and axis, for the report
+    /// (absent as `axis_gains`).
+    pub channel_gains: Option<[[f64; 3]; 3]>,
     /// Its threshold: the χ²(1) quantile at twice the level (boundary mixture).
     pub threshold: f64,
     /// The density estimated on the recording's first part alone (the held-out check's;
@@ -335,6 +371,13 @@ fn profile(rec: &Recording, cfg: &CalibConfig, q: Instability, span_s: f64) -> O
     })
 }
 
+/// The likelihood ratio a density must exceed: the χ²(1) quantile at twice a block's
+/// level `alpha / (budget × candidates)` (zero on the boundary: module doc).
+pub fn boundary_threshold(opts: &Options) -> f64 {
+    let level = opts.alpha / (opts.budget * opts.candidates.len()) as f64;
+    chi2_isf(2.0 * level, 1.0)
+}
+
 /// One density's test against the model `cfg` (the others as `cfg` carries them): its
 /// profile, and the held-out check where it is significant.
 fn test_one(
@@ -354,6 +397,9 @@ fn test_one(
         estimate: f64::NAN,
         sigma: None,
         likelihood_ratio: f64::NAN,
+        axis_gains: None,
+        channel_gains: None,
+        wander_over_prior: f64::NAN,
         threshold,
         first_part_estimate: None,
         holdout_likelihood_ratio: None,
@@ -369,13 +415,49 @@ fn test_one(
     t.estimate = p.best.0;
     t.sigma = p.sigma;
     t.likelihood_ratio = p.at_zero - p.best.1;
+    t.wander_over_prior = t.estimate / q.scale(cfg, span_s);
+    if t.likelihood_ratio > threshold && t.sigma.is_some() {
+        let by_axis = |v: f64| {
+            let opts = RunOptions {
+                freeze_at_s: None,
+                innovations_only: true,
+            };
+            run_with(rec, &q.with(cfg, v), Precision::F64, &opts)
+                .ok()
+                .map(|res| Likelihood::of(&res).by_channel)
+        };
+        let (none, with) = rayon::join(|| by_axis(0.0), || by_axis(t.estimate));
+        t.runs += 2;
+        if let (Some(a), Some(b)) = (none, with) {
+            let gains = [0, 1, 2].map(|c| [0, 1, 2].map(|k| a[c][k] - b[c][k]));
+            t.channel_gains = Some(gains);
+            t.axis_gains = q.channel().and_then(|c| gains.get(c).copied());
+        }
+    }
     t
 }
 
 impl InstabilityTest {
-    /// Significant: the likelihood ratio above its threshold, the size resolved.
-    fn significant(&self) -> bool {
-        self.likelihood_ratio > self.threshold && self.sigma.is_some()
+    /// Whether the walk gains on every axis of the channel it drives directly
+    /// (`axis_gains`; an axis the recording does not match gains exactly 0); true for a
+    /// walk that drives none (`Instability::channel`); false where the runs per axis
+    /// failed.
+    pub fn gains_on_every_axis(&self) -> bool {
+        self.channel_gains.is_some() && self.axis_gains.is_none_or(|g| g.iter().all(|&x| x >= 0.0))
+    }
+
+    /// Whether the walk's wander is within `PLAUSIBLE_WANDER` prior σ.
+    pub fn plausible(&self) -> bool {
+        self.wander_over_prior <= PLAUSIBLE_WANDER
+    }
+
+    /// Significant: the likelihood ratio above its threshold, the size resolved and
+    /// plausible, and a gain on every axis of its channel.
+    pub fn significant(&self) -> bool {
+        self.likelihood_ratio > self.threshold
+            && self.sigma.is_some()
+            && self.plausible()
+            && self.gains_on_every_axis()
     }
 }
 
@@ -395,8 +477,7 @@ pub fn test_instabilities(
     opts: &Options,
     span_s: f64,
 ) -> (Vec<InstabilityTest>, Option<CalibConfig>) {
-    let level = opts.alpha / (opts.budget * opts.candidates.len()) as f64;
-    let threshold = chi2_isf(2.0 * level, 1.0);
+    let threshold = boundary_threshold(opts);
     let mut carried = cfg.clone();
     let mut changed = false;
     let mut tests: Vec<InstabilityTest> = Vec::new();
@@ -457,4 +538,60 @@ pub fn test_instabilities(
     }
     tests.sort_by_key(|t| Instability::ALL.iter().position(|q| q.name() == t.effect));
     (tests, changed.then_some(carried))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn test_with(lr: f64, wander: f64, axes: Option<[f64; 3]>) -> InstabilityTest {
+        InstabilityTest {
+            effect: "accel_bias_instability",
+            key: "accel_bias_rw",
+            unit: "m/s²/√s",
+            pass: 1,
+            before: 0.0,
+            estimate: 1e-4,
+            sigma: Some(1e-5),
+            likelihood_ratio: lr,
+            axis_gains: axes,
+            channel_gains: Some([[0.0; 3]; 3]),
+            wander_over_prior: wander,
+            threshold: 11.17,
+            first_part_estimate: None,
+            holdout_likelihood_ratio: None,
+            named: false,
+            runs: 0,
+            error: None,
+        }
+    }
+
+    #[test]
+    fn a_walk_is_significant_only_above_threshold_plausible_and_gaining_on_every_axis() {
+        let gains = Some([40.0, 30.0, 0.0]);
+        assert!(test_with(100.0, 2.0, gains).significant());
+        assert!(!test_with(11.0, 2.0, gains).significant());
+        assert!(!test_with(100.0, PLAUSIBLE_WANDER + 0.1, gains).significant());
+        // The master velocity wave: all of it on the north velocity.
+        assert!(!test_with(34_902.0, 0.9, Some([-40.6, 34_276.0, -21.4])).significant());
+        // A gyro walk drives no channel directly: no per-axis rule.
+        assert!(test_with(100.0, 2.0, None).significant());
+        // The per-axis runs failed.
+        let mut failed = test_with(100.0, 2.0, None);
+        failed.channel_gains = None;
+        assert!(!failed.significant());
+        let mut unresolved = test_with(100.0, 2.0, gains);
+        unresolved.sigma = None;
+        assert!(!unresolved.significant());
+    }
+
+    #[test]
+    fn the_boundary_threshold_is_chi2_1_at_twice_the_level() {
+        // α 0.01 over 3 × 8 tests: level 4.17e-4, the χ²(1) quantile at 8.33e-4.
+        let opts = Options::default();
+        let thr = boundary_threshold(&opts);
+        assert!((thr - 11.1655).abs() < 1e-3, "{thr}");
+        // Below a one-state block's (12.46): half the null mass sits at zero.
+        assert!(thr < opts.threshold(1));
+    }
 }

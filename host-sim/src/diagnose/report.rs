@@ -79,6 +79,17 @@ pub fn instability_line(t: &InstabilityTest, truth: Option<&Truth>) -> String {
         "not significant".to_string()
     } else if t.sigma.is_none() {
         "not named: its size is not resolved (no curvature at the best density)".to_string()
+    } else if !t.plausible() {
+        format!(
+            "not named: implausible, it wanders {} prior σ of its state over the recording (at most {})",
+            fmt_g(t.wander_over_prior),
+            super::process_noise::PLAUSIBLE_WANDER
+        )
+    } else if !t.gains_on_every_axis() {
+        format!(
+            "not named: one density serves three axes, and it does not gain on each of its channel's (per axis {})",
+            t.axis_gains.map_or("–".into(), |g| fmt_vec(&g))
+        )
     } else if let Some(e) = &t.error {
         format!("not named: the held-out check failed: {e}")
     } else {
