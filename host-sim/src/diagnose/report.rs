@@ -93,7 +93,7 @@ pub fn instability_line(t: &InstabilityTest, truth: Option<&Truth>) -> String {
     } else if let Some(e) = &t.error {
         format!("not named: the held-out check failed: {e}")
     } else {
-        format!("not named: it does not predict the held-out part better{first}")
+        format!("not named: it does not predict the held-out part better by the threshold{first}")
     };
     let truth = truth
         .and_then(|tr| instability_truth(t, tr))
@@ -812,7 +812,7 @@ pub fn report_md(d: &Diagnosis, rec_label: &str, rec: &Recording, command: &str)
     }
     let _ = writeln!(
         s,
-        "## Process noise\n\nEach random walk's density searched on the whole recording with the final model, tested against none by its likelihood ratio (threshold: the χ²(1) quantile at twice a block's level, zero being on the boundary), named when, estimated on the first part alone, it also predicts the rest's innovations better (the filter running over the whole recording):\n"
+        "## Process noise\n\nEach random walk's density searched on the whole recording with the final model, tested against none by its likelihood ratio (threshold: the χ²(1) quantile at twice a block's level, zero being on the boundary), named when, estimated on the first part alone, it also predicts the rest's innovations better by the same threshold (the filter running over the whole recording):\n"
     );
     for t in &d.instabilities {
         let _ = writeln!(s, "- {}", instability_line(t, rec.truth.as_ref()));
