@@ -30,7 +30,7 @@
 
 use super::Options;
 use crate::calib::config::CalibConfig;
-use crate::calib::run::{run_with, Precision, RunOptions};
+use crate::calib::run::{run_with, CalibResult, Precision, RunOptions};
 use crate::learn::search::{parabola_vertex, Likelihood};
 use crate::recording::Recording;
 use flexcal_core::stats::chi2_isf;
@@ -169,16 +169,8 @@ pub struct InstabilityTest {
     /// The walk's wander over the recording in prior σ of its state (`density × √span
     /// / prior σ`); beyond `PLAUSIBLE_WANDER` it is not significant.
     pub wander_over_prior: f64,
-    /// The same on each axis of the channel the walk drives directly
-    /// (`Instability::channel`; absent when it drives none, when the test was not
-    /// significant or a run failed). One density serves
-    /// the three axes, so a walk gains on each; a slow error on one axis that a walk
-    /// only follows (the 37 s master velocity wave of `tests/diagnose.rs`: an
-    /// accelerometer walk's likelihood ratio 34 902, all of it from the north velocity)
-    /// does not.
-    pub axis_gains: Option<[f64; 3]>,
-    /// The gain per channel (velocity, attitude, angular rate) and axis, for the report
-    /// (absent as `axis_gains`).
+    /// The same per channel (velocity, attitude, angular rate) and axis (absent where
+    /// the profile found nothing better than none).
     pub channel_gains: Option<[[f64; 3]; 3]>,
     /// Its threshold: the χ²(1) quantile at twice the level (boundary mixture).
     pub threshold: f64,
@@ -198,29 +190,31 @@ pub struct InstabilityTest {
     pub error: Option<String>,
 }
 
-/// −2 log-likelihood of the innovations of `cfg` on `rec` (`None` where the run fails or
-/// is not finite).
-fn neg2ll(rec: &Recording, cfg: &CalibConfig) -> Option<f64> {
-    neg2ll_from(rec, cfg, f64::NEG_INFINITY)
+/// The run of `cfg` on `rec` that reads the innovations only.
+fn innovations(rec: &Recording, cfg: &CalibConfig) -> Option<CalibResult> {
+    let opts = RunOptions {
+        freeze_at_s: None,
+        innovations_only: true,
+    };
+    run_with(rec, cfg, Precision::F64, &opts).ok()
+}
+
+/// −2 log-likelihood of the innovations of `cfg` on `rec`, in total and per channel axis
+/// (`None` where the run fails or the total is not finite).
+fn neg2ll(rec: &Recording, cfg: &CalibConfig) -> Option<Likelihood> {
+    let l = Likelihood::of(&innovations(rec, cfg)?);
+    l.total.is_finite().then_some(l)
 }
 
 /// −2 log-likelihood of the innovations of `cfg` on `rec` stamped at or after `from_s`,
 /// the filter run over the whole recording.
 fn neg2ll_from(rec: &Recording, cfg: &CalibConfig, from_s: f64) -> Option<f64> {
-    let opts = RunOptions {
-        freeze_at_s: None,
-        innovations_only: true,
-    };
-    let res = run_with(rec, cfg, Precision::F64, &opts).ok()?;
-    let total = if from_s == f64::NEG_INFINITY {
-        Likelihood::of(&res).total
-    } else {
-        res.innovations
-            .iter()
-            .filter(|i| i.t >= from_s && i.variance > 0.0)
-            .map(|i| i.variance.ln() + i.value * i.value / i.variance)
-            .sum()
-    };
+    let total: f64 = innovations(rec, cfg)?
+        .innovations
+        .iter()
+        .filter(|i| i.t >= from_s && i.variance > 0.0)
+        .map(|i| i.variance.ln() + i.value * i.value / i.variance)
+        .sum();
     total.is_finite().then_some(total)
 }
 
@@ -267,10 +261,19 @@ fn holdout_gain(
 /// The density's profile: −2 ln L at zero and at the best density found, the best
 /// density and its σ; runs made.
 struct Profile {
-    at_zero: f64,
-    best: (f64, f64),
+    at_zero: Likelihood,
+    best: (f64, Likelihood),
     sigma: Option<f64>,
     runs: usize,
+}
+
+/// Index of the smallest −2 ln L of `tried`.
+fn argmin(tried: &[(f64, Likelihood)]) -> Option<usize> {
+    tried
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1 .1.total.total_cmp(&b.1 .1.total))
+        .map(|(i, _)| i)
 }
 
 /// Searches one density on `rec` with the rest of `cfg` fixed: zero and the ladder, then
@@ -285,7 +288,7 @@ fn profile(rec: &Recording, cfg: &CalibConfig, q: Instability, span_s: f64) -> O
     if current > 0.0 {
         values.push(current);
     }
-    let eval = |vs: &[f64]| -> Vec<Option<f64>> {
+    let eval = |vs: &[f64]| -> Vec<Option<Likelihood>> {
         vs.par_iter()
             .map(|&v| neg2ll(rec, &q.with(cfg, v)))
             .collect()
@@ -298,8 +301,8 @@ fn profile(rec: &Recording, cfg: &CalibConfig, q: Instability, span_s: f64) -> O
         .zip(&first)
         .skip(1)
         .filter_map(|(v, l)| l.map(|l| (*v, l)))
-        .min_by(|a, b| a.1.total_cmp(&b.1))?;
-    if start_l >= at_zero {
+        .min_by(|a, b| a.1.total.total_cmp(&b.1.total))?;
+    if start_l.total >= at_zero.total {
         return Some(Profile {
             at_zero,
             best: (0.0, at_zero),
@@ -308,7 +311,7 @@ fn profile(rec: &Recording, cfg: &CalibConfig, q: Instability, span_s: f64) -> O
         });
     }
     // Offsets in steps of `STEP` from the ladder's best, and what each gave.
-    let mut tried: Vec<(f64, f64)> = vec![(0.0, start_l)];
+    let mut tried: Vec<(f64, Likelihood)> = vec![(0.0, start_l)];
     let mut centre = 0.0;
     for _ in 0..WALKS {
         let offsets: Vec<f64> = [-1.0, 1.0]
@@ -324,12 +327,7 @@ fn profile(rec: &Recording, cfg: &CalibConfig, q: Instability, span_s: f64) -> O
             }
         }
         tried.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let Some(ib) = tried
-            .iter()
-            .enumerate()
-            .min_by(|a, b| a.1 .1.total_cmp(&b.1 .1))
-            .map(|(i, _)| i)
-        else {
+        let Some(ib) = argmin(&tried) else {
             break;
         };
         centre = tried.get(ib).map_or(0.0, |t| t.0);
@@ -337,17 +335,14 @@ fn profile(rec: &Recording, cfg: &CalibConfig, q: Instability, span_s: f64) -> O
             break;
         }
     }
-    let ib = tried
-        .iter()
-        .enumerate()
-        .min_by(|a, b| a.1 .1.total_cmp(&b.1 .1))
-        .map(|(i, _)| i)?;
+    let ib = argmin(&tried)?;
     let (best_o, best_l) = *tried.get(ib)?;
+    let point = |t: &(f64, Likelihood)| (t.0, t.1.total);
     let vertex = match (
         ib.checked_sub(1).and_then(|i| tried.get(i)),
         tried.get(ib + 1),
     ) {
-        (Some(a), Some(c)) => parabola_vertex(*a, (best_o, best_l), *c, STEP),
+        (Some(a), Some(c)) => parabola_vertex(point(a), (best_o, best_l.total), point(c), STEP),
         _ => None,
     };
     let Some((o, info)) = vertex else {
@@ -361,7 +356,7 @@ fn profile(rec: &Recording, cfg: &CalibConfig, q: Instability, span_s: f64) -> O
     let v = start * (o * STEP).exp();
     runs += 1;
     let best = match neg2ll(rec, &q.with(cfg, v)) {
-        Some(l) if l <= best_l => (v, l),
+        Some(l) if l.total <= best_l.total => (v, l),
         _ => (start * (best_o * STEP).exp(), best_l),
     };
     // σ of the logarithm → σ of the density (first order).
@@ -400,7 +395,6 @@ fn test_one(
         estimate: f64::NAN,
         sigma: None,
         likelihood_ratio: f64::NAN,
-        axis_gains: None,
         channel_gains: None,
         wander_over_prior: f64::NAN,
         threshold,
@@ -417,36 +411,38 @@ fn test_one(
     t.runs = p.runs;
     t.estimate = p.best.0;
     t.sigma = p.sigma;
-    t.likelihood_ratio = p.at_zero - p.best.1;
+    t.likelihood_ratio = p.at_zero.total - p.best.1.total;
     t.wander_over_prior = t.estimate / q.scale(cfg, span_s);
-    if t.likelihood_ratio > threshold && t.sigma.is_some() {
-        let by_axis = |v: f64| {
-            let opts = RunOptions {
-                freeze_at_s: None,
-                innovations_only: true,
-            };
-            run_with(rec, &q.with(cfg, v), Precision::F64, &opts)
-                .ok()
-                .map(|res| Likelihood::of(&res).by_channel)
-        };
-        let (none, with) = rayon::join(|| by_axis(0.0), || by_axis(t.estimate));
-        t.runs += 2;
-        if let (Some(a), Some(b)) = (none, with) {
-            let gains = [0, 1, 2].map(|c| [0, 1, 2].map(|k| a[c][k] - b[c][k]));
-            t.channel_gains = Some(gains);
-            t.axis_gains = q.channel().and_then(|c| gains.get(c).copied());
-        }
+    if t.estimate > 0.0 {
+        let (a, b) = (p.at_zero.by_channel, p.best.1.by_channel);
+        t.channel_gains = Some([0, 1, 2].map(|c| [0, 1, 2].map(|k| a[c][k] - b[c][k])));
     }
     t
 }
 
 impl InstabilityTest {
+    /// The gain on each axis of the channel the walk drives directly
+    /// (`Instability::channel`; none when it drives none or `channel_gains` is absent).
+    /// One density serves the three axes, so a walk gains on each; a slow error on one
+    /// axis that a walk only follows (the 37 s master velocity wave of
+    /// `tests/diagnose.rs`: an accelerometer walk's likelihood ratio 34 902, all of it
+    /// from the north velocity) does not.
+    pub fn axis_gains(&self) -> Option<[f64; 3]> {
+        let channel = Instability::ALL
+            .iter()
+            .find(|q| q.name() == self.effect)?
+            .channel()?;
+        self.channel_gains?.get(channel).copied()
+    }
+
     /// Whether the walk gains on every axis of the channel it drives directly
     /// (`axis_gains`; an axis the recording does not match gains exactly 0); true for a
-    /// walk that drives none (`Instability::channel`); false where the runs per axis
-    /// failed.
+    /// walk that drives none (`Instability::channel`); false without `channel_gains`.
     pub fn gains_on_every_axis(&self) -> bool {
-        self.channel_gains.is_some() && self.axis_gains.is_none_or(|g| g.iter().all(|&x| x >= 0.0))
+        self.channel_gains.is_some()
+            && self
+                .axis_gains()
+                .is_none_or(|g| g.iter().all(|&x| x >= 0.0))
     }
 
     /// Whether the walk's wander is within `PLAUSIBLE_WANDER` prior σ.
@@ -486,7 +482,7 @@ pub fn test_instabilities(
     let mut tests: Vec<InstabilityTest> = Vec::new();
     let mut to_test: Vec<Instability> = Instability::ALL.to_vec();
     for pass in 1..=Instability::ALL.len() {
-        let fresh: Vec<InstabilityTest> = to_test
+        let mut fresh: Vec<InstabilityTest> = to_test
             .iter()
             .map(|&q| test_one(rec, &carried, q, threshold, span_s, pass))
             .collect();
@@ -498,7 +494,6 @@ pub fn test_instabilities(
             .collect();
         ranked.sort_by(|a, b| b.0.total_cmp(&a.0));
         let mut named = None;
-        let mut fresh = fresh;
         for &(_, k) in &ranked {
             let (Some(t), Some(&q)) = (fresh.get_mut(k), to_test.get(k)) else {
                 continue;
@@ -547,18 +542,19 @@ pub fn test_instabilities(
 mod tests {
     use super::*;
 
-    fn test_with(lr: f64, wander: f64, axes: Option<[f64; 3]>) -> InstabilityTest {
+    /// A test of `q` with likelihood ratio `lr`, wander `wander` (prior σ) and the gains
+    /// `velocity` on the velocity axes (the other channels' zero).
+    fn test_with(q: Instability, lr: f64, wander: f64, velocity: [f64; 3]) -> InstabilityTest {
         InstabilityTest {
-            effect: "accel_bias_instability",
-            key: "accel_bias_rw",
-            unit: "m/s²/√s",
+            effect: q.name(),
+            key: q.key(),
+            unit: q.unit(),
             pass: 1,
             before: 0.0,
             estimate: 1e-4,
             sigma: Some(1e-5),
             likelihood_ratio: lr,
-            axis_gains: axes,
-            channel_gains: Some([[0.0; 3]; 3]),
+            channel_gains: Some([velocity, [0.0; 3], [0.0; 3]]),
             wander_over_prior: wander,
             threshold: 11.17,
             first_part_estimate: None,
@@ -571,19 +567,25 @@ mod tests {
 
     #[test]
     fn a_walk_is_significant_only_above_threshold_plausible_and_gaining_on_every_axis() {
-        let gains = Some([40.0, 30.0, 0.0]);
-        assert!(test_with(100.0, 2.0, gains).significant());
-        assert!(!test_with(11.0, 2.0, gains).significant());
-        assert!(!test_with(100.0, PLAUSIBLE_WANDER + 0.1, gains).significant());
+        let accel = Instability::AccelBias;
+        let gains = [40.0, 30.0, 0.0];
+        assert!(test_with(accel, 100.0, 2.0, gains).significant());
+        assert!(!test_with(accel, 11.0, 2.0, gains).significant());
+        assert!(!test_with(accel, 100.0, PLAUSIBLE_WANDER + 0.1, gains).significant());
         // The master velocity wave: all of it on the north velocity.
-        assert!(!test_with(34_902.0, 0.9, Some([-40.6, 34_276.0, -21.4])).significant());
+        let wave = [-40.6, 34_276.0, -21.4];
+        assert!(!test_with(accel, 34_902.0, 0.9, wave).significant());
         // A gyro walk drives no channel directly: no per-axis rule.
-        assert!(test_with(100.0, 2.0, None).significant());
-        // The per-axis runs failed.
-        let mut failed = test_with(100.0, 2.0, None);
-        failed.channel_gains = None;
-        assert!(!failed.significant());
-        let mut unresolved = test_with(100.0, 2.0, gains);
+        assert_eq!(
+            test_with(Instability::GyroBias, 100.0, 2.0, wave).axis_gains(),
+            None
+        );
+        assert!(test_with(Instability::GyroBias, 100.0, 2.0, wave).significant());
+        // No gains: the profile found nothing better than none.
+        let mut none = test_with(accel, 100.0, 2.0, gains);
+        none.channel_gains = None;
+        assert!(!none.significant());
+        let mut unresolved = test_with(accel, 100.0, 2.0, gains);
         unresolved.sigma = None;
         assert!(!unresolved.significant());
     }

@@ -88,7 +88,7 @@ pub fn instability_line(t: &InstabilityTest, truth: Option<&Truth>) -> String {
     } else if !t.gains_on_every_axis() {
         format!(
             "not named: one density serves three axes, and it does not gain on each of its channel's (per axis {})",
-            t.axis_gains.map_or("–".into(), |g| fmt_vec(&g))
+            t.axis_gains().map_or("–".into(), |g| fmt_vec(&g))
         )
     } else if let Some(e) = &t.error {
         format!("not named: the held-out check failed: {e}")
