@@ -90,9 +90,10 @@ pub const MISALIGNMENT_WANDER_ARCMIN: (f64, f64) = (0.5, 5.0);
 /// drawn biases' own σ (1 °/h, 1 mg): log-uniform in this range.
 pub const BIAS_WANDER_OVER_RUN: (f64, f64) = (0.3, 3.0);
 
-/// The random walk density (per √h) that wanders `wander` (1σ) over `duration_s`.
-fn density_per_root_hour(wander: f64, duration_s: f64) -> f64 {
-    wander / (duration_s.max(1.0) / 3600.0).sqrt()
+/// A random walk's density (per √h) that wanders a log-uniform draw from `(lo, hi)`
+/// (1σ, the walk's unit) over `duration_s`.
+fn walk_density(rng: &mut impl Rng, (lo, hi): (f64, f64), duration_s: f64) -> f64 {
+    log_uniform(rng, lo, hi) / (duration_s.max(1.0) / 3600.0).sqrt()
 }
 
 /// The clock drift's delay at the end of a blind run (s): uniform in this range.
@@ -229,20 +230,14 @@ pub fn draw_effects(seed: u64, duration_s: f64, effects: &[BlindEffect]) -> Scen
                 undeclared.master_delay_rate = rng.gen_range(lo..=hi) / duration_s.max(1.0);
             }
             BlindEffect::GyroBiasInstability => {
-                let (lo, hi) = BIAS_WANDER_OVER_RUN;
-                let wander_deg_h = log_uniform(&mut rng, lo, hi);
-                imu.gyro_bias_rw_deg_h_rh = density_per_root_hour(wander_deg_h, duration_s);
+                imu.gyro_bias_rw_deg_h_rh = walk_density(&mut rng, BIAS_WANDER_OVER_RUN, duration_s)
             }
             BlindEffect::AccelBiasInstability => {
-                let (lo, hi) = BIAS_WANDER_OVER_RUN;
-                let wander_mg = log_uniform(&mut rng, lo, hi);
-                imu.accel_bias_rw_mg_rh = density_per_root_hour(wander_mg, duration_s);
+                imu.accel_bias_rw_mg_rh = walk_density(&mut rng, BIAS_WANDER_OVER_RUN, duration_s)
             }
             BlindEffect::MisalignmentDrift => {
-                let (lo, hi) = MISALIGNMENT_WANDER_ARCMIN;
-                let wander_arcmin = log_uniform(&mut rng, lo, hi);
                 undeclared.misalignment_rw_arcmin_rh =
-                    density_per_root_hour(wander_arcmin, duration_s);
+                    walk_density(&mut rng, MISALIGNMENT_WANDER_ARCMIN, duration_s)
             }
         }
     }

@@ -279,7 +279,8 @@ impl SmoothMasterError {
 }
 
 /// A quantity that wanders as a Wiener process per axis (a bias's instability, a
-/// mounting's drift), stepped once per IMU interval from a random stream of its own (the
+/// mounting's drift), stepped once per its interval (an IMU interval for the biases, a
+/// `MOUNTING_STEP_S` segment for the mounting) from a random stream of its own (the
 /// white noises' draws and the other walks' are the same with or without it); constant,
 /// and drawing nothing, where its density is zero.
 struct RandomWalk3 {
