@@ -109,6 +109,15 @@ impl<T: Real, const M: usize> AlignBuffer<T, M> {
         self.ring.back().map(|s| s.t)
     }
 
+    /// `t`, or the newest snapshot's time where `t` is past it (none held: `t`). For a
+    /// time of validity let through within a rounding slack of the newest sample.
+    pub fn at_most_newest(&self, t: f64) -> f64 {
+        match self.ring.back() {
+            Some(s) if t > s.t => s.t,
+            _ => t,
+        }
+    }
+
     /// The snapshots, oldest first.
     pub fn iter(&self) -> impl Iterator<Item = &Snapshot<T>> {
         self.ring.iter()

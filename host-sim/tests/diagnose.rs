@@ -324,15 +324,15 @@ fn a_lever_arm_error_read_against_the_start_is_found_once_the_whole_model_is_lea
 
 /// Blind draw 103 with a master delay and a lever-arm error drawn together (300 s, no
 /// configuration; 50 ms found before the filter and compensated in the learning, a
-/// 0.5 m arm error on a 10.8 m arm, a 10 Hz master with smooth errors only). Learned
-/// with the arm in the data and not in the layout, the model took the arm into its
-/// flexure (1.58 mrad about x, 0.23 drawn), and against it both effects, significant
-/// (Wald 3 713 and 814), predicted the held-out part worse: nothing was adopted. Judged
-/// on the whole model learned again with it (`diagnose`'s `judge_relearned`), the arm
-/// is adopted in round 1 and the delay in round 2, both within 3σ of the draw in the
-/// final model (`docs/diagnosis.md`, "Session 18").
+/// 0.5 m arm error on a 10.8 m arm, a 10 Hz master with smooth errors only): both
+/// found, each within 3σ of the draw in the final model. Until the declared delay was
+/// matched off the filter epochs (`docs/diagnosis.md`, "A declared delay matched off
+/// the epochs"), the learning read the flexure states up to a period stale and took the
+/// arm into its flexure (1.58 mrad about x, 0.23 drawn); only the whole model learned
+/// again with the arm (session 18's `judge_relearned`) found both. Now the delay is
+/// adopted in round 1 (50.0 ± 0.14 ms) and the arm in round 2.
 #[test]
-fn a_delay_and_a_lever_arm_drawn_together_are_both_found_once_the_model_is_learned_with_the_arm() {
+fn a_delay_and_a_lever_arm_drawn_together_are_both_found_within_3_sigma() {
     use flexcal_sim::sim::blind::{draw_effects, BlindEffect};
     let seed = 103;
     let sc = draw_effects(
@@ -341,16 +341,6 @@ fn a_delay_and_a_lever_arm_drawn_together_are_both_found_once_the_model_is_learn
         &[BlindEffect::TimeDelay, BlindEffect::LeverArmError],
     );
     let d = blind_diagnosis(&sc, seed);
-    let first = d.rounds.first().expect("round 1");
-    let judged = first
-        .relearned_candidate
-        .as_ref()
-        .expect("round 1 judged a candidate on the model learned again with it");
-    assert_eq!(judged.effect, Effect::LeverArmError.name());
-    assert!(
-        judged.relearned.as_ref().is_some_and(|r| r.kept),
-        "not adopted: {judged:?}"
-    );
     let mut names = found(&d);
     names.sort_unstable();
     let mut drawn = vec![Effect::TimeDelay.name(), Effect::LeverArmError.name()];
