@@ -29,25 +29,31 @@ fn draw_with_delay(tau: f64) -> (Recording, CalibConfig) {
     (simulate(&sc, SEED).recording, cfg)
 }
 
-/// −2 ln L per accepted innovation and the number of innovations.
-fn likelihood_per_innovation(rec: &Recording, cfg: &CalibConfig) -> (f64, usize) {
+/// −2 ln L per accepted innovation of each channel (velocity, attitude, rate) and the
+/// number of innovations.
+fn likelihood_per_innovation(rec: &Recording, cfg: &CalibConfig) -> ([f64; 3], usize) {
     let res = run(rec, cfg, Precision::F64).expect("run");
-    let accepted: Vec<_> = res.innovations.iter().filter(|i| i.accepted).collect();
-    let n = accepted.len();
-    let sum: f64 = accepted
-        .iter()
-        .map(|i| i.variance.ln() + i.value * i.value / i.variance)
-        .sum();
-    (sum / n as f64, n)
+    let (mut sum, mut count) = ([0.0; 3], [0usize; 3]);
+    for i in res.innovations.iter().filter(|i| i.accepted) {
+        sum[i.channel] += i.variance.ln() + i.value * i.value / i.variance;
+        count[i.channel] += 1;
+    }
+    (
+        [0, 1, 2].map(|c| sum[c] / count[c].max(1) as f64),
+        count.iter().sum(),
+    )
 }
 
 /// The draw with no delay, matched at the epochs, against the same draw with its master
 /// 10 ms, 20 ms (whole IMU periods: the time of validity falls on an IMU stamp) and
-/// 12.5 ms late with that delay declared. Matched as if at the epoch, the declared
-/// 10 ms was 46 worse per innovation (flexure states up to a period stale, or a period
-/// early where the stamps' rounding put `t − τ` past the sample); read back to the
-/// matching time, 0.02. The bound, a tenth, is the flexure read-back's own cost (its
-/// process noise over the lag, not in the predicted variance) with room.
+/// 12.5 ms late with that delay declared, channel by channel. Matched as if at the
+/// epoch, the declared 10 ms was 46 worse per innovation (flexure states up to a period
+/// stale, or a period early where the stamps' rounding put `t − τ` past the sample);
+/// read back to the matching time, within 0.02. The bound, a tenth, is the flexure
+/// read-back's own cost (its process noise over the lag, not in the predicted variance)
+/// with room. The rate channel at 12.5 ms is better than with none (the slave's rate is
+/// interpolated between two interval midpoints there, extrapolated on a stamp:
+/// `docs/diagnosis.md`), so only its excess is bounded.
 #[test]
 fn a_declared_delay_is_matched_as_well_as_no_delay_at_all() {
     let (rec, cfg) = draw_with_delay(0.0);
@@ -57,15 +63,17 @@ fn a_declared_delay_is_matched_as_well_as_no_delay_at_all() {
         cfg.initial_delay_s = tau;
         let (declared, n) = likelihood_per_innovation(&rec, &cfg);
         eprintln!(
-            "τ {tau} s: −2 ln L per innovation {declared:.4} ({n}), none {none:.4} ({n_none})"
+            "τ {tau} s: −2 ln L per innovation {declared:.4?} ({n}), none {none:.4?} ({n_none})"
         );
         assert!(
             n + n / 100 >= n_none,
             "τ {tau} s: {n} innovations accepted against {n_none}"
         );
-        assert!(
-            declared - none < 0.1,
-            "τ {tau} s: −2 ln L per innovation {declared:.4} against {none:.4} with no delay"
-        );
+        for (c, (d, z)) in declared.iter().zip(&none).enumerate() {
+            assert!(
+                d - z < 0.1,
+                "τ {tau} s, channel {c}: −2 ln L per innovation {d:.4} against {z:.4} with no delay"
+            );
+        }
     }
 }
