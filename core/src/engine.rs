@@ -7,7 +7,7 @@ use crate::align::{AlignBuffer, AlignError, RateAt, SlaveAt, Snapshot};
 use crate::augment::{self, Augmentation, Channel, Effect, Signature, CLOCK_DRIFT_PRIOR_SPAN_S};
 use crate::earth::{self, Position};
 use crate::flexure::{AxisModel, FlexureModel};
-use crate::kalman::{Health, Kalman, ScalarUpdate};
+use crate::kalman::{Health, Kalman, Parts, ScalarUpdate};
 use crate::mat::{self, mul3, mul3v, transpose3, vec3, vget, zip3};
 use crate::model::{
     self, IntervalMeans, LeverBending, ProcessNoise, StateMat, StateVec, BA, BG, MU, N, PSI, TH,
@@ -1727,6 +1727,20 @@ impl<T: Real, const S: usize> Engine<T, S> {
 /// specific force (m/s², slave body). A rank-one addition to the factors; nothing when
 /// the floor does not bind (a ship whose motion parts the tilt from the biases).
 fn floor_tilt_bias_product<T: Real, const S: usize>(kf: &mut Kalman<T, S>, f_b: &Vector3<T>) {
+    let mut scratch = [[T::zero(); S]; 2];
+    let [h, f] = &mut scratch;
+    floor_tilt_bias_product_n(kf.parts(), f_b, [h, f]);
+}
+
+/// [`floor_tilt_bias_product`] for any state dimension: one copy for the board's two
+/// layouts (a copy per size, inlined into each time update, cost ≈ 0.9 kB of flash).
+/// `scratch`: two temporaries of the filter's dimension, zero.
+#[inline(never)]
+fn floor_tilt_bias_product_n<T: Real>(
+    mut kf: Parts<'_, T>,
+    f_b: &Vector3<T>,
+    [h, f]: [&mut [T]; 2],
+) {
     let (xx, yy, zz) = (
         kf.cov(BA, BA),
         kf.cov(BA + 1, BA + 1),
@@ -1744,8 +1758,11 @@ fn floor_tilt_bias_product<T: Real, const S: usize>(kf: &mut Kalman<T, S>, f_b: 
     };
     let u = fl.direction_b;
     let c = [(BA, u.x), (BA + 1, u.y), (BA + 2, u.z)];
-    if let Some(v) = kf.variance_along(&c).filter(|&v| v < fl.variance) {
-        kf.add_rank_one(&c, fl.variance - v);
+    if let Some(v) = kf
+        .variance_along(&c, [&mut *h, f])
+        .filter(|&v| v < fl.variance)
+    {
+        kf.add_rank_one(&c, fl.variance - v, h);
     }
 }
 
