@@ -707,95 +707,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         u: &mut StateMat<T, S>,
         d: &mut StateVec<T, S>,
     ) {
-        let s = &cfg.initial_sigma;
-        let sq = |x: T| x * x;
-        let mut set_d = |i: usize, v: T| {
-            if let Some(e) = d.get_mut(i) {
-                *e = v;
-            }
-        };
-        let blocks = [
-            (V, sq(s.velocity_mps)),
-            (MU, sq(s.misalignment_rad)),
-            (BG, sq(s.gyro_bias_radps)),
-            (BA, sq(s.accel_bias_mps2)),
-        ];
-        for (b, var) in blocks {
-            for k in 0..3 {
-                set_d(b + k, var);
-            }
-        }
-        for (axis, ar) in cfg.flexure.axes.iter().enumerate() {
-            let (i, j) = (TH + axis, THD + axis);
-            if ar.is_rigid() {
-                // Inert, as the states past the layout: unit variance, tied to nothing
-                // (below: not to ψ either), read by no row (`match_master`).
-                set_d(i, T::one());
-                set_d(j, T::one());
-                continue;
-            }
-            match ar.stationary_covariance(cfg.flexure.period_s) {
-                Some(c) => {
-                    let (a, b, e) = (mat::get(&c, 0, 0), mat::get(&c, 0, 1), mat::get(&c, 1, 1));
-                    set_d(j, e);
-                    if e > T::zero() {
-                        mat::set(u, i, j, b / e);
-                        set_d(i, (a - b * b / e).max(T::zero()));
-                    } else {
-                        set_d(i, a);
-                    }
-                }
-                None => {
-                    let t = cfg.flexure.period_s;
-                    set_d(i, sq(s.flexure_rad));
-                    set_d(j, sq(s.flexure_rad / t));
-                }
-            }
-        }
-        // Augmented blocks: their priors; states past them are inert (unit variance).
-        for b in cfg.augmentation.blocks() {
-            for k in 0..b.effect.states() {
-                let scale = T::of(b.effect.state_prior_scale(k));
-                set_d(b.offset + k, sq(b.prior_sigma * scale));
-            }
-        }
-        for i in cfg.augmentation.dimension()..S {
-            set_d(i, T::one());
-        }
-        // ψ = −J (δμ + θ) + n. U maps the independent parts e (variances D) to the states,
-        // x = U e, and θ = e_θ + U(θ, θ̇) e_θ̇: so ψ's row is −J at δμ and θ and
-        // −J U(θ, θ̇) at θ̇. A rigid axis's θ is zero: nothing at its columns.
-        let j = right_jacobian(&cfg.initial_misalignment_rad);
-        for r in 0..3 {
-            for c in 0..3 {
-                let v = -mat::get(&j, r, c);
-                mat::set(u, PSI + r, MU + c, v);
-                if cfg.flexure.axes.get(c).is_some_and(AxisModel::is_rigid) {
-                    continue;
-                }
-                mat::set(u, PSI + r, TH + c, v);
-                let w = v * mat::get(u, TH + c, THD + c);
-                mat::set(u, PSI + r, THD + c, w);
-            }
-            let sigma = cfg.measurement_noise.attitude_rad.get(r).copied();
-            set_d(PSI + r, sq(sigma.unwrap_or_else(T::zero)));
-        }
-        // The master's smooth errors at the start: ψ's row `Ĉ_bs^nᵀ` at φ_m's columns,
-        // δv's the identity at δv_m's.
-        let att = cfg.augmentation.offset(Effect::MasterAttitudeError);
-        let vel = cfg.augmentation.offset(Effect::MasterVelocityError);
-        if let Some(c_bs_n) = start_c_bs_n {
-            for r in 0..3 {
-                for c in 0..3 {
-                    if let Some(o) = att {
-                        mat::set(u, PSI + r, o + c, mat::get(c_bs_n, c, r));
-                    }
-                    if let (Some(o), true) = (vel, r == c) {
-                        mat::set(u, V + r, o + c, T::one());
-                    }
-                }
-            }
-        }
+        initial_factor_n(cfg, start_c_bs_n, u.as_mut_slice(), d.as_mut_slice());
     }
 
     /// The filter back at P₀ ([`Engine::initial_factor`]), in its own storage. The one
@@ -1715,6 +1627,122 @@ impl<T: Real, const S: usize> Engine<T, S> {
                 self.delay_s = tau.clamp(-MAX_DELAY_S, MAX_DELAY_S);
                 self.delay_rate = rate.clamp(-MAX_DELAY_RATE, MAX_DELAY_RATE);
                 self.kf.reset_states(o..o + 2);
+            }
+        }
+    }
+}
+
+/// [`Engine::initial_factor`] for any state dimension `n` (`d`'s length; `u` its
+/// `n × n` storage, element `(i, j)` at `j n + i` as nalgebra's): one copy for the board's
+/// two layouts (a copy per size cost ≈ 0.85 kB of flash).
+#[inline(never)]
+fn initial_factor_n<T: Real>(
+    cfg: &EngineConfig<T>,
+    start_c_bs_n: Option<&Matrix3<T>>,
+    u: &mut [T],
+    d: &mut [T],
+) {
+    let n = d.len();
+    // `mat::get` and `mat::set` on the `n × n` storage: nothing outside it.
+    let get_u = |u: &[T], i: usize, j: usize| {
+        let e = if i < n && j < n {
+            u.get(j * n + i)
+        } else {
+            None
+        };
+        e.copied().unwrap_or_else(T::zero)
+    };
+    let set_u = |u: &mut [T], i: usize, j: usize, v: T| {
+        if let Some(e) = u.get_mut(j * n + i).filter(|_| i < n && j < n) {
+            *e = v;
+        }
+    };
+    let s = &cfg.initial_sigma;
+    let sq = |x: T| x * x;
+    let mut set_d = |i: usize, v: T| {
+        if let Some(e) = d.get_mut(i) {
+            *e = v;
+        }
+    };
+    let blocks = [
+        (V, sq(s.velocity_mps)),
+        (MU, sq(s.misalignment_rad)),
+        (BG, sq(s.gyro_bias_radps)),
+        (BA, sq(s.accel_bias_mps2)),
+    ];
+    for (b, var) in blocks {
+        for k in 0..3 {
+            set_d(b + k, var);
+        }
+    }
+    for (axis, ar) in cfg.flexure.axes.iter().enumerate() {
+        let (i, j) = (TH + axis, THD + axis);
+        if ar.is_rigid() {
+            // Inert, as the states past the layout: unit variance, tied to nothing
+            // (below: not to ψ either), read by no row (`match_master`).
+            set_d(i, T::one());
+            set_d(j, T::one());
+            continue;
+        }
+        match ar.stationary_covariance(cfg.flexure.period_s) {
+            Some(c) => {
+                let (a, b, e) = (mat::get(&c, 0, 0), mat::get(&c, 0, 1), mat::get(&c, 1, 1));
+                set_d(j, e);
+                if e > T::zero() {
+                    set_u(u, i, j, b / e);
+                    set_d(i, (a - b * b / e).max(T::zero()));
+                } else {
+                    set_d(i, a);
+                }
+            }
+            None => {
+                let t = cfg.flexure.period_s;
+                set_d(i, sq(s.flexure_rad));
+                set_d(j, sq(s.flexure_rad / t));
+            }
+        }
+    }
+    // Augmented blocks: their priors; states past them are inert (unit variance).
+    for b in cfg.augmentation.blocks() {
+        for k in 0..b.effect.states() {
+            let scale = T::of(b.effect.state_prior_scale(k));
+            set_d(b.offset + k, sq(b.prior_sigma * scale));
+        }
+    }
+    for i in cfg.augmentation.dimension()..n {
+        set_d(i, T::one());
+    }
+    // ψ = −J (δμ + θ) + n. U maps the independent parts e (variances D) to the states,
+    // x = U e, and θ = e_θ + U(θ, θ̇) e_θ̇: so ψ's row is −J at δμ and θ and
+    // −J U(θ, θ̇) at θ̇. A rigid axis's θ is zero: nothing at its columns.
+    let j = right_jacobian(&cfg.initial_misalignment_rad);
+    for r in 0..3 {
+        for c in 0..3 {
+            let v = -mat::get(&j, r, c);
+            set_u(u, PSI + r, MU + c, v);
+            if cfg.flexure.axes.get(c).is_some_and(AxisModel::is_rigid) {
+                continue;
+            }
+            set_u(u, PSI + r, TH + c, v);
+            let w = v * get_u(u, TH + c, THD + c);
+            set_u(u, PSI + r, THD + c, w);
+        }
+        let sigma = cfg.measurement_noise.attitude_rad.get(r).copied();
+        set_d(PSI + r, sq(sigma.unwrap_or_else(T::zero)));
+    }
+    // The master's smooth errors at the start: ψ's row `Ĉ_bs^nᵀ` at φ_m's columns,
+    // δv's the identity at δv_m's.
+    let att = cfg.augmentation.offset(Effect::MasterAttitudeError);
+    let vel = cfg.augmentation.offset(Effect::MasterVelocityError);
+    if let Some(c_bs_n) = start_c_bs_n {
+        for r in 0..3 {
+            for c in 0..3 {
+                if let Some(o) = att {
+                    set_u(u, PSI + r, o + c, mat::get(c_bs_n, c, r));
+                }
+                if let (Some(o), true) = (vel, r == c) {
+                    set_u(u, V + r, o + c, T::one());
+                }
             }
         }
     }
