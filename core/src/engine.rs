@@ -371,6 +371,14 @@ pub struct Engine<T: Real, const S: usize = N> {
     /// Which flexure axes of `cfg` are rigid ([`AxisModel::is_rigid`]: their θ, θ̇ inert),
     /// kept with `cfg` as `has_delay` (asked at every matched channel).
     rigid_axes: [bool; 3],
+    /// `1e-6 · filter period` (s): how near an epoch a sample counts as reaching it
+    /// (`maybe_predict`, `needed_until`); kept with `cfg` as `has_delay` (the product,
+    /// software `f64` on the board, cost ≈ 0.1k instructions a master update).
+    epoch_reach_s: f64,
+    /// `1e-9 · filter period` (s) with a delay, else 0: the rounding `match_ready` allows
+    /// a needed epoch against the IMU time stamps; kept with `cfg` as `has_delay` (its
+    /// product at every pending message ≈ 0.25k instructions a master update).
+    match_slack_s: f64,
     /// The master's last angular rates (for the delay's rate column, the lever-arm
     /// columns' instrument, the g-sensitivity's rate column and the gyro scale
     /// factor's and non-orthogonality's rate columns).
@@ -531,6 +539,20 @@ fn static_states<T: Real>(cfg: &EngineConfig<T>) -> impl Fn(usize) -> bool {
     move |i| mask >> i.min(63) & 1 == 1
 }
 
+/// `Engine::epoch_reach_s` of `cfg`.
+fn epoch_reach<T: Real>(cfg: &EngineConfig<T>) -> f64 {
+    1e-6 * cfg.filter_period_s
+}
+
+/// `Engine::match_slack_s` of `cfg`.
+fn match_slack<T: Real>(cfg: &EngineConfig<T>) -> f64 {
+    if layout_has_delay(cfg) {
+        1e-9 * cfg.filter_period_s
+    } else {
+        0.0
+    }
+}
+
 /// Whether `cfg`'s layout carries the master delay: `time_delay` or `clock_drift`.
 fn layout_has_delay<T: Real>(cfg: &EngineConfig<T>) -> bool {
     cfg.augmentation.blocks().any(|b| b.effect.is_clock())
@@ -626,6 +648,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
             fits_master_rate: layout_fits_master_rate(&cfg),
             carried_force: uses_carried_force(&cfg),
             rigid_axes: rigid_axes(&cfg),
+            epoch_reach_s: epoch_reach(&cfg),
+            match_slack_s: match_slack(&cfg),
             cfg,
         }
     }
@@ -676,6 +700,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
         self.fits_master_rate = layout_fits_master_rate(&cfg);
         self.carried_force = uses_carried_force(&cfg);
         self.rigid_axes = rigid_axes(&cfg);
+        self.epoch_reach_s = epoch_reach(&cfg);
+        self.match_slack_s = match_slack(&cfg);
         self.cfg = cfg;
         Ok(())
     }
@@ -966,7 +992,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         match (self.epoch, self.strapdown.is_some()) {
             (Some(ep), true) => {
                 let last = ep.next_t - period;
-                if t_s <= last + 1e-6 * period {
+                if t_s <= last + self.epoch_reach_s {
                     t_s
                 } else {
                     let k = libm::ceil((t_s - ep.next_t) / period - 1e-6).max(0.0);
@@ -1118,7 +1144,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         let period = self.cfg.filter_period_s;
         let Some(ep) = self.epoch else { return };
         // A sample within a millionth of a period of the epoch counts as reaching it.
-        if t + 1e-6 * period < ep.next_t || ep.dt <= 0.0 {
+        if t + self.epoch_reach_s < ep.next_t || ep.dt <= 0.0 {
             return;
         }
         let Some(nav) = self.strapdown.as_ref().map(|s| s.nav) else {
@@ -1207,11 +1233,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             let needed = self.needed_until(msg.t);
             // With a delay, `needed` may be an epoch computed on the filter grid: allow
             // its rounding against the IMU time stamps.
-            let slack = if self.has_delay() {
-                1e-9 * self.cfg.filter_period_s
-            } else {
-                0.0
-            };
+            let slack = self.match_slack_s;
             if newest.is_none_or(|t| needed > t + slack) {
                 break;
             }
