@@ -1301,23 +1301,12 @@ impl<T: Real, const S: usize> Engine<T, S> {
     fn initialize(&mut self, msg: &MasterNav<T>) -> Start {
         // The clock drift's reference: the first start (a reset keeps it, and τ̂ with it).
         self.clock_t0.get_or_insert(msg.t);
-        let c_bm_n = dcm(&msg.q_bm_n);
-        let r0 = self.cfg.lever_arm_m;
-        let q_bs_n = msg.q_bm_n * quat_exp(&self.misalignment);
-        let lever_v = c_bm_n * msg.w_ib_bm.map_or(Vector3::zeros(), |w| w.cross(&r0));
+        let (nav, c_bs_n) = start_nav(msg, &self.cfg, &self.misalignment);
         // The start holds the master's smooth errors of this instant (see
         // `initial_factor`); only layouts carrying those blocks restart, once per start.
-        if Effect::MASTER_ERRORS
-            .iter()
-            .any(|&e| self.cfg.augmentation.offset(e).is_some())
-        {
-            Self::restart_covariance(&mut self.kf, &self.cfg, Some(&dcm(&q_bs_n)));
+        if let Some(c_bs_n) = c_bs_n {
+            Self::restart_covariance(&mut self.kf, &self.cfg, Some(&c_bs_n));
         }
-        let nav = NavState {
-            q_b_n: q_bs_n,
-            v_n: msg.v_n + lever_v,
-            pos: earth::Local::at(&msg.pos).offset_position(&(c_bm_n * r0)),
-        };
         // The snapshots after msg.t are integrated again in place (`catch_up`), with no
         // copy of the buffer on the stack (it was the board's stack peak, 9.2 kB).
         self.buffer.drop_until(msg.t);
@@ -1370,25 +1359,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
     #[inline(never)]
     fn catch_up(&mut self, start: Start) {
         let n = start.raw_count;
-        // The sample `k` of the `n` (oldest first), its interval cut at the start.
-        let after_start = |buffer: &AlignBuffer<T, ALIGN_DEPTH>, k: usize| {
-            let s = buffer.iter().nth(k)?;
-            let dt = s.t - (s.t - s.dt).max(start.t);
-            let frac = T::of(if s.dt > 0.0 {
-                (dt / s.dt).clamp(0.0, 1.0)
-            } else {
-                0.0
-            });
-            Some(HeldImu {
-                s: ImuIncrement {
-                    t: s.t,
-                    dtheta_b: s.dtheta_raw_b * frac,
-                    dv_b: s.dv_raw_b * frac,
-                },
-                dt,
-                gap: false,
-            })
-        };
+        let after_start =
+            |buffer: &AlignBuffer<T, ALIGN_DEPTH>, k: usize| after_start(buffer, k, start.t);
         // One slot kept free: `push_imu` may be about to hold the sample it was given.
         if IMU_HOLD_DEPTH.saturating_sub(self.held.len()) > n {
             // Newest first, each to the front.
@@ -1652,6 +1624,60 @@ impl<T: Real, const S: usize> Engine<T, S> {
             }
         }
     }
+}
+
+/// The slave's navigation state at a start from the master message `msg`
+/// ([`Engine::initialize`]): the master's attitude through μ̂₀ (`misalignment`), its
+/// velocity with the lever arm's, its position moved by the arm; and, where the layout
+/// carries the master's smooth errors (`initial_factor`), the slave's attitude `Ĉ_bs^n`
+/// for the filter's restart. One copy for the board's two layouts (a copy per size cost
+/// ≈ 0.8 kB of flash).
+#[inline(never)]
+fn start_nav<T: Real>(
+    msg: &MasterNav<T>,
+    cfg: &EngineConfig<T>,
+    misalignment: &Vector3<T>,
+) -> (NavState<T>, Option<Matrix3<T>>) {
+    let c_bm_n = dcm(&msg.q_bm_n);
+    let r0 = cfg.lever_arm_m;
+    let q_bs_n = msg.q_bm_n * quat_exp(misalignment);
+    let lever_v = c_bm_n * msg.w_ib_bm.map_or(Vector3::zeros(), |w| w.cross(&r0));
+    let restart = Effect::MASTER_ERRORS
+        .iter()
+        .any(|&e| cfg.augmentation.offset(e).is_some());
+    let c_bs_n = restart.then(|| dcm(&q_bs_n));
+    let nav = NavState {
+        q_b_n: q_bs_n,
+        v_n: msg.v_n + lever_v,
+        pos: earth::Local::at(&msg.pos).offset_position(&(c_bm_n * r0)),
+    };
+    (nav, c_bs_n)
+}
+
+/// The buffer's sample `k` (oldest first) of those after a start at `start_t`, its
+/// interval cut at the start ([`Engine::catch_up`]); one copy for the board's two layouts.
+#[inline(never)]
+fn after_start<T: Real>(
+    buffer: &AlignBuffer<T, ALIGN_DEPTH>,
+    k: usize,
+    start_t: f64,
+) -> Option<HeldImu<T>> {
+    let s = buffer.iter().nth(k)?;
+    let dt = s.t - (s.t - s.dt).max(start_t);
+    let frac = T::of(if s.dt > 0.0 {
+        (dt / s.dt).clamp(0.0, 1.0)
+    } else {
+        0.0
+    });
+    Some(HeldImu {
+        s: ImuIncrement {
+            t: s.t,
+            dtheta_b: s.dtheta_raw_b * frac,
+            dv_b: s.dv_raw_b * frac,
+        },
+        dt,
+        gap: false,
+    })
 }
 
 /// [`Engine::initial_factor`] for any state dimension `n` (`d`'s length; `u` its
