@@ -276,8 +276,8 @@ impl<T: Real> Parts<'_, T> {
     /// [`Kalman::variance_along`], `h` and `f` two `n`-element temporaries (zero) lent by
     /// the caller.
     pub(crate) fn variance_along(&self, c: &[(usize, T)], hf: [&mut [T]; 2]) -> Option<T> {
-        let factors = (&*self.u, &*self.d, self.xs, self.scale, self.pos);
-        variance_along_n(factors, c, hf)
+        let factors = (&*self.u, self.xs, self.scale, self.pos);
+        variance_along_n(self.d, factors, c, hf)
     }
 
     /// [`Kalman::add_rank_one`], `v` an `n`-element temporary lent by the caller (its
@@ -360,18 +360,19 @@ fn scaled_off_n<T: Real>(u: &[T], d: &[T], n: usize, (i, j): (usize, usize)) -> 
     acc
 }
 
-/// [`Kalman::variance_along`] on the factors `(U, D, x_s, s, pos)` of any `n`, `h` and `f`
-/// two `n`-element temporaries (zero).
+/// [`Kalman::variance_along`] on the factors of any `n` (`D` and [`project`]'s `(U, x_s,
+/// s, pos)`), `h` and `f` two `n`-element temporaries (zero).
 #[inline(always)]
 fn variance_along_n<T: Real>(
-    (u, d, xs, scale, pos): (&[T], &[T], &[T], &[T], &[u8]),
+    d: &[T],
+    factors: (&[T], &[T], &[T], &[u8]),
     c: &[(usize, T)],
     [h, f]: [&mut [T]; 2],
 ) -> Option<T> {
     for &(i, ci) in c {
         *h.get_mut(i)? += ci;
     }
-    project(f, (h, 0, 0), (u, xs, scale, pos));
+    project(f, (h, 0, 0), factors);
     // Over slices (nalgebra's iterator cost the board ≈ 20 instructions an element).
     let mut acc = T::zero();
     for (&dk, &fk) in d.iter().zip(f.iter()) {
@@ -1588,12 +1589,11 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         let (mut h, mut f) = ([T::zero(); N], [T::zero(); N]);
         let factors = (
             self.u.as_slice(),
-            self.d.as_slice(),
             self.xs.as_slice(),
             self.scale.as_slice(),
             self.pos.as_slice(),
         );
-        variance_along_n(factors, c, [&mut h, &mut f])
+        variance_along_n(self.d.as_slice(), factors, c, [&mut h, &mut f])
     }
 
     /// `P ← P + α c cᵀ` (physical units; `c` by its non-zeros `(state, value)`, `α ≥ 0`)
