@@ -553,8 +553,8 @@ pub enum Channel {
 }
 
 /// Adds `block` (3 × `C`) to the three rows from column `col` on.
-fn add_columns<T: Real, const S: usize, const C: usize>(
-    rows: &mut [SVector<T, S>; 3],
+fn add_columns<T: Real, const C: usize>(
+    rows: &mut [&mut [T]; 3],
     col: usize,
     block: &SMatrix<T, 3, C>,
 ) {
@@ -570,6 +570,20 @@ fn add_columns<T: Real, const S: usize, const C: usize>(
 /// Adds the augmented blocks' columns to the three rows of one matching measurement.
 pub fn add_measurement<T: Real, const S: usize>(
     rows: &mut [SVector<T, S>; 3],
+    aug: &Augmentation<T>,
+    channel: Channel,
+    sig: &Signature<T>,
+) {
+    let [r0, r1, r2] = rows;
+    let mut rows = [r0.as_mut_slice(), r1.as_mut_slice(), r2.as_mut_slice()];
+    add_measurement_n(&mut rows, aug, channel, sig);
+}
+
+/// [`add_measurement`] on the rows as slices: one copy for every state dimension (the
+/// board's two layouts; a copy per size cost ≈ 0.7 kB of flash).
+#[inline(never)]
+fn add_measurement_n<T: Real>(
+    rows: &mut [&mut [T]; 3],
     aug: &Augmentation<T>,
     channel: Channel,
     sig: &Signature<T>,

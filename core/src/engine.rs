@@ -7,7 +7,7 @@ use crate::align::{AlignBuffer, AlignError, RateAt, SlaveAt, Snapshot};
 use crate::augment::{self, Augmentation, Channel, Effect, Signature, CLOCK_DRIFT_PRIOR_SPAN_S};
 use crate::earth::{self, Position};
 use crate::flexure::{AxisModel, FlexureModel};
-use crate::kalman::{Health, Kalman, ScalarUpdate};
+use crate::kalman::{Health, Kalman, Parts, ScalarUpdate};
 use crate::mat::{self, mul3, mul3v, transpose3, vec3, vget, zip3};
 use crate::model::{
     self, IntervalMeans, LeverBending, ProcessNoise, StateMat, StateVec, BA, BG, MU, N, PSI, TH,
@@ -375,6 +375,15 @@ pub struct Engine<T: Real, const S: usize = N> {
     /// Which flexure axes of `cfg` are rigid ([`AxisModel::is_rigid`]: their θ, θ̇ inert),
     /// kept with `cfg` as `has_delay` (asked at every matched channel).
     rigid_axes: [bool; 3],
+    /// `1e-6 · filter period` (s): how near an epoch a sample counts as reaching it
+    /// (`maybe_predict`, `needed_until`); kept with `cfg` as `has_delay` (the product,
+    /// software `f64` on the board, cost ≈ 0.1k instructions a master update).
+    epoch_reach_s: f64,
+    /// `1e-9 · filter period` (s) off the epochs ([`matches_off_epoch`]: a delay in the
+    /// layout or declared), else 0: the rounding `match_ready` allows
+    /// a needed epoch against the IMU time stamps; kept with `cfg` as `has_delay` (its
+    /// product at every pending message ≈ 0.25k instructions a master update).
+    match_slack_s: f64,
     /// The master's last angular rates (for the delay's rate column, the lever-arm
     /// columns' instrument, the g-sensitivity's rate column and the gyro scale
     /// factor's and non-orthogonality's rate columns).
@@ -535,6 +544,20 @@ fn static_states<T: Real>(cfg: &EngineConfig<T>) -> impl Fn(usize) -> bool {
     move |i| mask >> i.min(63) & 1 == 1
 }
 
+/// `Engine::epoch_reach_s` of `cfg`.
+fn epoch_reach<T: Real>(cfg: &EngineConfig<T>) -> f64 {
+    1e-6 * cfg.filter_period_s
+}
+
+/// `Engine::match_slack_s` of `cfg`.
+fn match_slack<T: Real>(cfg: &EngineConfig<T>) -> f64 {
+    if matches_off_epoch(cfg) {
+        1e-9 * cfg.filter_period_s
+    } else {
+        0.0
+    }
+}
+
 /// Whether `cfg`'s layout carries the master delay: `time_delay` or `clock_drift`.
 fn layout_has_delay<T: Real>(cfg: &EngineConfig<T>) -> bool {
     cfg.augmentation.blocks().any(|b| b.effect.is_clock())
@@ -646,6 +669,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
             fits_master_rate: layout_fits_master_rate(&cfg),
             carried_force: uses_carried_force(&cfg),
             rigid_axes: rigid_axes(&cfg),
+            epoch_reach_s: epoch_reach(&cfg),
+            match_slack_s: match_slack(&cfg),
             cfg,
         }
     }
@@ -697,6 +722,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
         self.fits_master_rate = layout_fits_master_rate(&cfg);
         self.carried_force = uses_carried_force(&cfg);
         self.rigid_axes = rigid_axes(&cfg);
+        self.epoch_reach_s = epoch_reach(&cfg);
+        self.match_slack_s = match_slack(&cfg);
         self.cfg = cfg;
         Ok(())
     }
@@ -728,95 +755,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         u: &mut StateMat<T, S>,
         d: &mut StateVec<T, S>,
     ) {
-        let s = &cfg.initial_sigma;
-        let sq = |x: T| x * x;
-        let mut set_d = |i: usize, v: T| {
-            if let Some(e) = d.get_mut(i) {
-                *e = v;
-            }
-        };
-        let blocks = [
-            (V, sq(s.velocity_mps)),
-            (MU, sq(s.misalignment_rad)),
-            (BG, sq(s.gyro_bias_radps)),
-            (BA, sq(s.accel_bias_mps2)),
-        ];
-        for (b, var) in blocks {
-            for k in 0..3 {
-                set_d(b + k, var);
-            }
-        }
-        for (axis, ar) in cfg.flexure.axes.iter().enumerate() {
-            let (i, j) = (TH + axis, THD + axis);
-            if ar.is_rigid() {
-                // Inert, as the states past the layout: unit variance, tied to nothing
-                // (below: not to ψ either), read by no row (`match_master`).
-                set_d(i, T::one());
-                set_d(j, T::one());
-                continue;
-            }
-            match ar.stationary_covariance(cfg.flexure.period_s) {
-                Some(c) => {
-                    let (a, b, e) = (mat::get(&c, 0, 0), mat::get(&c, 0, 1), mat::get(&c, 1, 1));
-                    set_d(j, e);
-                    if e > T::zero() {
-                        mat::set(u, i, j, b / e);
-                        set_d(i, (a - b * b / e).max(T::zero()));
-                    } else {
-                        set_d(i, a);
-                    }
-                }
-                None => {
-                    let t = cfg.flexure.period_s;
-                    set_d(i, sq(s.flexure_rad));
-                    set_d(j, sq(s.flexure_rad / t));
-                }
-            }
-        }
-        // Augmented blocks: their priors; states past them are inert (unit variance).
-        for b in cfg.augmentation.blocks() {
-            for k in 0..b.effect.states() {
-                let scale = T::of(b.effect.state_prior_scale(k));
-                set_d(b.offset + k, sq(b.prior_sigma * scale));
-            }
-        }
-        for i in cfg.augmentation.dimension()..S {
-            set_d(i, T::one());
-        }
-        // ψ = −J (δμ + θ) + n. U maps the independent parts e (variances D) to the states,
-        // x = U e, and θ = e_θ + U(θ, θ̇) e_θ̇: so ψ's row is −J at δμ and θ and
-        // −J U(θ, θ̇) at θ̇. A rigid axis's θ is zero: nothing at its columns.
-        let j = right_jacobian(&cfg.initial_misalignment_rad);
-        for r in 0..3 {
-            for c in 0..3 {
-                let v = -mat::get(&j, r, c);
-                mat::set(u, PSI + r, MU + c, v);
-                if cfg.flexure.axes.get(c).is_some_and(AxisModel::is_rigid) {
-                    continue;
-                }
-                mat::set(u, PSI + r, TH + c, v);
-                let w = v * mat::get(u, TH + c, THD + c);
-                mat::set(u, PSI + r, THD + c, w);
-            }
-            let sigma = cfg.measurement_noise.attitude_rad.get(r).copied();
-            set_d(PSI + r, sq(sigma.unwrap_or_else(T::zero)));
-        }
-        // The master's smooth errors at the start: ψ's row `Ĉ_bs^nᵀ` at φ_m's columns,
-        // δv's the identity at δv_m's.
-        let att = cfg.augmentation.offset(Effect::MasterAttitudeError);
-        let vel = cfg.augmentation.offset(Effect::MasterVelocityError);
-        if let Some(c_bs_n) = start_c_bs_n {
-            for r in 0..3 {
-                for c in 0..3 {
-                    if let Some(o) = att {
-                        mat::set(u, PSI + r, o + c, mat::get(c_bs_n, c, r));
-                    }
-                    if let (Some(o), true) = (vel, r == c) {
-                        mat::set(u, V + r, o + c, T::one());
-                    }
-                }
-            }
-        }
+        initial_factor_n(cfg, start_c_bs_n, u.as_mut_slice(), d.as_mut_slice());
     }
 
     /// The filter back at P₀ ([`Engine::initial_factor`]), in its own storage. The one
@@ -1076,7 +1015,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         match (self.epoch, self.strapdown.is_some()) {
             (Some(ep), true) => {
                 let last = ep.next_t - period;
-                if t_s <= last + 1e-6 * period {
+                if t_s <= last + self.epoch_reach_s {
                     t_s
                 } else {
                     let k = libm::ceil((t_s - ep.next_t) / period - 1e-6).max(0.0);
@@ -1228,7 +1167,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         let period = self.cfg.filter_period_s;
         let Some(ep) = self.epoch else { return };
         // A sample within a millionth of a period of the epoch counts as reaching it.
-        if t + 1e-6 * period < ep.next_t || ep.dt <= 0.0 {
+        if t + self.epoch_reach_s < ep.next_t || ep.dt <= 0.0 {
             return;
         }
         let Some(nav) = self.strapdown.as_ref().map(|s| s.nav) else {
@@ -1317,11 +1256,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             let needed = self.needed_until(msg.t);
             // With a delay, `needed` may be an epoch computed on the filter grid: allow
             // its rounding against the IMU time stamps.
-            let slack = if self.off_epoch {
-                1e-9 * self.cfg.filter_period_s
-            } else {
-                0.0
-            };
+            let slack = self.match_slack_s;
             if newest.is_none_or(|t| needed > t + slack) {
                 break;
             }
@@ -1395,23 +1330,12 @@ impl<T: Real, const S: usize> Engine<T, S> {
         let t_start = self.slave_time(msg.t);
         // The clock drift's reference: the first start (a reset keeps it, and τ̂ with it).
         self.clock_t0.get_or_insert(msg.t);
-        let c_bm_n = dcm(&msg.q_bm_n);
-        let r0 = self.cfg.lever_arm_m;
-        let q_bs_n = msg.q_bm_n * quat_exp(&self.misalignment);
-        let lever_v = c_bm_n * msg.w_ib_bm.map_or(Vector3::zeros(), |w| w.cross(&r0));
+        let (nav, c_bs_n) = start_nav(msg, &self.cfg, &self.misalignment);
         // The start holds the master's smooth errors of this instant (see
         // `initial_factor`); only layouts carrying those blocks restart, once per start.
-        if Effect::MASTER_ERRORS
-            .iter()
-            .any(|&e| self.cfg.augmentation.offset(e).is_some())
-        {
-            Self::restart_covariance(&mut self.kf, &self.cfg, Some(&dcm(&q_bs_n)));
+        if let Some(c_bs_n) = c_bs_n {
+            Self::restart_covariance(&mut self.kf, &self.cfg, Some(&c_bs_n));
         }
-        let nav = NavState {
-            q_b_n: q_bs_n,
-            v_n: msg.v_n + lever_v,
-            pos: earth::Local::at(&msg.pos).offset_position(&(c_bm_n * r0)),
-        };
         // The snapshots after msg.t are integrated again in place (`catch_up`), with no
         // copy of the buffer on the stack (it was the board's stack peak, 9.2 kB).
         self.buffer.drop_until(t_start);
@@ -1464,25 +1388,8 @@ impl<T: Real, const S: usize> Engine<T, S> {
     #[inline(never)]
     fn catch_up(&mut self, start: Start) {
         let n = start.raw_count;
-        // The sample `k` of the `n` (oldest first), its interval cut at the start.
-        let after_start = |buffer: &AlignBuffer<T, ALIGN_DEPTH>, k: usize| {
-            let s = buffer.iter().nth(k)?;
-            let dt = s.t - (s.t - s.dt).max(start.t);
-            let frac = T::of(if s.dt > 0.0 {
-                (dt / s.dt).clamp(0.0, 1.0)
-            } else {
-                0.0
-            });
-            Some(HeldImu {
-                s: ImuIncrement {
-                    t: s.t,
-                    dtheta_b: s.dtheta_raw_b * frac,
-                    dv_b: s.dv_raw_b * frac,
-                },
-                dt,
-                gap: false,
-            })
-        };
+        let after_start =
+            |buffer: &AlignBuffer<T, ALIGN_DEPTH>, k: usize| after_start(buffer, k, start.t);
         // One slot kept free: `push_imu` may be about to hold the sample it was given.
         if IMU_HOLD_DEPTH.saturating_sub(self.held.len()) > n {
             // Newest first, each to the front.
@@ -1752,6 +1659,176 @@ impl<T: Real, const S: usize> Engine<T, S> {
     }
 }
 
+/// The slave's navigation state at a start from the master message `msg`
+/// ([`Engine::initialize`]): the master's attitude through μ̂₀ (`misalignment`), its
+/// velocity with the lever arm's, its position moved by the arm; and, where the layout
+/// carries the master's smooth errors (`initial_factor`), the slave's attitude `Ĉ_bs^n`
+/// for the filter's restart. One copy for the board's two layouts (a copy per size cost
+/// ≈ 0.8 kB of flash).
+#[inline(never)]
+fn start_nav<T: Real>(
+    msg: &MasterNav<T>,
+    cfg: &EngineConfig<T>,
+    misalignment: &Vector3<T>,
+) -> (NavState<T>, Option<Matrix3<T>>) {
+    let c_bm_n = dcm(&msg.q_bm_n);
+    let r0 = cfg.lever_arm_m;
+    let q_bs_n = msg.q_bm_n * quat_exp(misalignment);
+    let lever_v = c_bm_n * msg.w_ib_bm.map_or(Vector3::zeros(), |w| w.cross(&r0));
+    let restart = Effect::MASTER_ERRORS
+        .iter()
+        .any(|&e| cfg.augmentation.offset(e).is_some());
+    let c_bs_n = restart.then(|| dcm(&q_bs_n));
+    let nav = NavState {
+        q_b_n: q_bs_n,
+        v_n: msg.v_n + lever_v,
+        pos: earth::Local::at(&msg.pos).offset_position(&(c_bm_n * r0)),
+    };
+    (nav, c_bs_n)
+}
+
+/// The buffer's sample `k` (oldest first) of those after a start at `start_t`, its
+/// interval cut at the start ([`Engine::catch_up`]); one copy for the board's two layouts.
+#[inline(never)]
+fn after_start<T: Real>(
+    buffer: &AlignBuffer<T, ALIGN_DEPTH>,
+    k: usize,
+    start_t: f64,
+) -> Option<HeldImu<T>> {
+    let s = buffer.iter().nth(k)?;
+    let dt = s.t - (s.t - s.dt).max(start_t);
+    let frac = T::of(if s.dt > 0.0 {
+        (dt / s.dt).clamp(0.0, 1.0)
+    } else {
+        0.0
+    });
+    Some(HeldImu {
+        s: ImuIncrement {
+            t: s.t,
+            dtheta_b: s.dtheta_raw_b * frac,
+            dv_b: s.dv_raw_b * frac,
+        },
+        dt,
+        gap: false,
+    })
+}
+
+/// [`Engine::initial_factor`] for any state dimension `n` (`d`'s length; `u` its
+/// `n × n` storage, element `(i, j)` at `j n + i` as nalgebra's): one copy for the board's
+/// two layouts (a copy per size cost ≈ 0.85 kB of flash).
+#[inline(never)]
+fn initial_factor_n<T: Real>(
+    cfg: &EngineConfig<T>,
+    start_c_bs_n: Option<&Matrix3<T>>,
+    u: &mut [T],
+    d: &mut [T],
+) {
+    let n = d.len();
+    // `mat::get` and `mat::set` on the `n × n` storage: nothing outside it.
+    let get_u = |u: &[T], i: usize, j: usize| {
+        let e = if i < n && j < n {
+            u.get(j * n + i)
+        } else {
+            None
+        };
+        e.copied().unwrap_or_else(T::zero)
+    };
+    let set_u = |u: &mut [T], i: usize, j: usize, v: T| {
+        if let Some(e) = u.get_mut(j * n + i).filter(|_| i < n && j < n) {
+            *e = v;
+        }
+    };
+    let s = &cfg.initial_sigma;
+    let sq = |x: T| x * x;
+    let mut set_d = |i: usize, v: T| {
+        if let Some(e) = d.get_mut(i) {
+            *e = v;
+        }
+    };
+    let blocks = [
+        (V, sq(s.velocity_mps)),
+        (MU, sq(s.misalignment_rad)),
+        (BG, sq(s.gyro_bias_radps)),
+        (BA, sq(s.accel_bias_mps2)),
+    ];
+    for (b, var) in blocks {
+        for k in 0..3 {
+            set_d(b + k, var);
+        }
+    }
+    for (axis, ar) in cfg.flexure.axes.iter().enumerate() {
+        let (i, j) = (TH + axis, THD + axis);
+        if ar.is_rigid() {
+            // Inert, as the states past the layout: unit variance, tied to nothing
+            // (below: not to ψ either), read by no row (`match_master`).
+            set_d(i, T::one());
+            set_d(j, T::one());
+            continue;
+        }
+        match ar.stationary_covariance(cfg.flexure.period_s) {
+            Some(c) => {
+                let (a, b, e) = (mat::get(&c, 0, 0), mat::get(&c, 0, 1), mat::get(&c, 1, 1));
+                set_d(j, e);
+                if e > T::zero() {
+                    set_u(u, i, j, b / e);
+                    set_d(i, (a - b * b / e).max(T::zero()));
+                } else {
+                    set_d(i, a);
+                }
+            }
+            None => {
+                let t = cfg.flexure.period_s;
+                set_d(i, sq(s.flexure_rad));
+                set_d(j, sq(s.flexure_rad / t));
+            }
+        }
+    }
+    // Augmented blocks: their priors; states past them are inert (unit variance).
+    for b in cfg.augmentation.blocks() {
+        for k in 0..b.effect.states() {
+            let scale = T::of(b.effect.state_prior_scale(k));
+            set_d(b.offset + k, sq(b.prior_sigma * scale));
+        }
+    }
+    for i in cfg.augmentation.dimension()..n {
+        set_d(i, T::one());
+    }
+    // ψ = −J (δμ + θ) + n. U maps the independent parts e (variances D) to the states,
+    // x = U e, and θ = e_θ + U(θ, θ̇) e_θ̇: so ψ's row is −J at δμ and θ and
+    // −J U(θ, θ̇) at θ̇. A rigid axis's θ is zero: nothing at its columns.
+    let j = right_jacobian(&cfg.initial_misalignment_rad);
+    for r in 0..3 {
+        for c in 0..3 {
+            let v = -mat::get(&j, r, c);
+            set_u(u, PSI + r, MU + c, v);
+            if cfg.flexure.axes.get(c).is_some_and(AxisModel::is_rigid) {
+                continue;
+            }
+            set_u(u, PSI + r, TH + c, v);
+            let w = v * get_u(u, TH + c, THD + c);
+            set_u(u, PSI + r, THD + c, w);
+        }
+        let sigma = cfg.measurement_noise.attitude_rad.get(r).copied();
+        set_d(PSI + r, sq(sigma.unwrap_or_else(T::zero)));
+    }
+    // The master's smooth errors at the start: ψ's row `Ĉ_bs^nᵀ` at φ_m's columns,
+    // δv's the identity at δv_m's.
+    let att = cfg.augmentation.offset(Effect::MasterAttitudeError);
+    let vel = cfg.augmentation.offset(Effect::MasterVelocityError);
+    if let Some(c_bs_n) = start_c_bs_n {
+        for r in 0..3 {
+            for c in 0..3 {
+                if let Some(o) = att {
+                    set_u(u, PSI + r, o + c, mat::get(c_bs_n, c, r));
+                }
+                if let (Some(o), true) = (vel, r == c) {
+                    set_u(u, V + r, o + c, T::one());
+                }
+            }
+        }
+    }
+}
+
 /// Raises the accelerometer bias's variance along its sharpest direction to the floor
 /// the tilt–bias product sets ([`tilt_bias::floor`]) where the filter claims less: the
 /// velocity's second-order error that Φ leaves out, `½|∇⊥|²/|f|` along the specific
@@ -1759,6 +1836,20 @@ impl<T: Real, const S: usize> Engine<T, S> {
 /// specific force (m/s², slave body). A rank-one addition to the factors; nothing when
 /// the floor does not bind (a ship whose motion parts the tilt from the biases).
 fn floor_tilt_bias_product<T: Real, const S: usize>(kf: &mut Kalman<T, S>, f_b: &Vector3<T>) {
+    let mut scratch = [[T::zero(); S]; 2];
+    let [h, f] = &mut scratch;
+    floor_tilt_bias_product_n(kf.parts(), f_b, [h, f]);
+}
+
+/// [`floor_tilt_bias_product`] for any state dimension: one copy for the board's two
+/// layouts (a copy per size, inlined into each time update, cost ≈ 0.9 kB of flash).
+/// `scratch`: two temporaries of the filter's dimension, zero.
+#[inline(never)]
+fn floor_tilt_bias_product_n<T: Real>(
+    mut kf: Parts<'_, T>,
+    f_b: &Vector3<T>,
+    [h, f]: [&mut [T]; 2],
+) {
     let (xx, yy, zz) = (
         kf.cov(BA, BA),
         kf.cov(BA + 1, BA + 1),
@@ -1776,8 +1867,11 @@ fn floor_tilt_bias_product<T: Real, const S: usize>(kf: &mut Kalman<T, S>, f_b: 
     };
     let u = fl.direction_b;
     let c = [(BA, u.x), (BA + 1, u.y), (BA + 2, u.z)];
-    if let Some(v) = kf.variance_along(&c).filter(|&v| v < fl.variance) {
-        kf.add_rank_one(&c, fl.variance - v);
+    if let Some(v) = kf
+        .variance_along(&c, [&mut *h, f])
+        .filter(|&v| v < fl.variance)
+    {
+        kf.add_rank_one(&c, fl.variance - v, h);
     }
 }
 

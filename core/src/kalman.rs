@@ -244,6 +244,143 @@ pub struct Kalman<T: Real, const N: usize> {
     pub health: Health,
 }
 
+/// A filter's factors borrowed for any `n` ([`Kalman::parts`]): the covariance reads and
+/// the rank-one addition of the engine's tilt–bias floor, one copy for the board's two
+/// layouts (one per size, inlined into each layout's time update, cost ≈ 0.9 kB of flash;
+/// docs/performance.md, "What issue12-s21 changed"). Each the arithmetic of the
+/// [`Kalman`] method of its name, which calls the same code.
+pub(crate) struct Parts<'a, T> {
+    u: &'a mut [T],
+    d: &'a mut [T],
+    xs: &'a [T],
+    scale: &'a [T],
+    inv_scale: &'a [T],
+    pos: &'a [u8],
+    health: &'a mut Health,
+}
+
+impl<T: Real> Parts<'_, T> {
+    /// [`Kalman::cov`].
+    pub(crate) fn cov(&self, i: usize, j: usize) -> T {
+        let n = self.pos.len();
+        let internal = |i: usize| self.pos.get(i).map_or(n, |&p| usize::from(p));
+        let (a, b) = (internal(i), internal(j));
+        let (u, d) = (&*self.u, &*self.d);
+        match (self.scale.get(a), self.scale.get(b)) {
+            (Some(sa), Some(sb)) if a == b => scaled_diag_n(u, d, n, a) * *sa * *sb,
+            (Some(sa), Some(sb)) => scaled_off_n(u, d, n, (a, b)) * *sa * *sb,
+            _ => T::zero(),
+        }
+    }
+
+    /// [`Kalman::variance_along`], `h` and `f` two `n`-element temporaries (zero) lent by
+    /// the caller.
+    pub(crate) fn variance_along(&self, c: &[(usize, T)], hf: [&mut [T]; 2]) -> Option<T> {
+        let factors = (&*self.u, self.xs, self.scale, self.pos);
+        variance_along_n(self.d, factors, c, hf)
+    }
+
+    /// [`Kalman::add_rank_one`], `v` an `n`-element temporary lent by the caller (its
+    /// contents are not read: it is zeroed first).
+    pub(crate) fn add_rank_one(&mut self, c: &[(usize, T)], alpha: T, v: &mut [T]) {
+        v.fill(T::zero());
+        let (u, d, inv_scale, pos, health) = (
+            &mut *self.u,
+            &mut *self.d,
+            self.inv_scale,
+            self.pos,
+            &mut *self.health,
+        );
+        let n = pos.len();
+        let internal = |i: usize| pos.get(i).map_or(n, |&p| usize::from(p));
+        // c in the internal order, scaled as a covariance's column (P_s = S⁻¹ P S⁻¹).
+        let mut in_range = alpha >= T::zero() && alpha.is_finite();
+        for &(i, ci) in c {
+            let a = internal(i);
+            match (v.get_mut(a), inv_scale.get(a)) {
+                (Some(e), Some(&inv)) => *e += ci * inv,
+                _ => in_range = false,
+            }
+        }
+        if !in_range {
+            health.non_finite += 1;
+            return;
+        }
+        let mut a = alpha;
+        for j in (0..n).rev() {
+            let s = v.get(j).copied().unwrap_or_else(T::zero);
+            let Some(dj) = d.get_mut(j) else { continue };
+            if s == T::zero() {
+                continue;
+            }
+            let dn = *dj + a * s * s;
+            let positive = dn > T::zero() && dn.is_finite();
+            if !positive {
+                continue;
+            }
+            let b = a * s / dn;
+            a = a * *dj / dn;
+            *dj = dn;
+            for (i, vi) in v.iter_mut().enumerate().take(j) {
+                if let Some(uij) = u.get_mut(i * n + j) {
+                    *vi -= s * *uij;
+                    *uij += b * *vi;
+                }
+            }
+        }
+    }
+}
+
+/// `P_s(b, b) = D_b + Σ_{k>b} U(b, k)² D_k` ([`Kalman::scaled_diag`]), U `n × n` row-major.
+#[inline(always)]
+fn scaled_diag_n<T: Real>(u: &[T], d: &[T], n: usize, b: usize) -> T {
+    let mut acc = T::zero() + d.get(b).copied().unwrap_or_else(T::zero);
+    let row = u.get(b * n + b + 1..(b + 1) * n).unwrap_or(&[]);
+    for (&ubk, &dk) in row.iter().zip(d.get(b + 1..).unwrap_or(&[])) {
+        acc += ubk * ubk * dk;
+    }
+    acc
+}
+
+/// `P_s(i, j)` off the diagonal (`i ≠ j`; [`Kalman::scaled_at`]), U `n × n` row-major.
+#[inline(always)]
+fn scaled_off_n<T: Real>(u: &[T], d: &[T], n: usize, (i, j): (usize, usize)) -> T {
+    let (a, b) = (i.min(j), i.max(j));
+    // k = b first (U(b, b) = 1: `U(a, b) · 1 · D_b` is `U(a, b) · D_b`), then rows a
+    // and b of U after column b, read as slices: the same terms in the same order.
+    let (Some(&uab), Some(&db)) = (u.get(a * n + b), d.get(b)) else {
+        return T::zero();
+    };
+    let mut acc = T::zero() + uab * db;
+    let ra = u.get(a * n + b + 1..(a + 1) * n).unwrap_or(&[]);
+    let rb = u.get(b * n + b + 1..(b + 1) * n).unwrap_or(&[]);
+    for ((&uak, &ubk), &dk) in ra.iter().zip(rb).zip(d.get(b + 1..).unwrap_or(&[])) {
+        acc += uak * ubk * dk;
+    }
+    acc
+}
+
+/// [`Kalman::variance_along`] on the factors of any `n` (`D` and [`project`]'s `(U, x_s,
+/// s, pos)`), `h` and `f` two `n`-element temporaries (zero).
+#[inline(always)]
+fn variance_along_n<T: Real>(
+    d: &[T],
+    factors: (&[T], &[T], &[T], &[u8]),
+    c: &[(usize, T)],
+    [h, f]: [&mut [T]; 2],
+) -> Option<T> {
+    for &(i, ci) in c {
+        *h.get_mut(i)? += ci;
+    }
+    project(f, (h, 0, 0), factors);
+    // Over slices (nalgebra's iterator cost the board ≈ 20 instructions an element).
+    let mut acc = T::zero();
+    for (&dk, &fk) in d.iter().zip(f.iter()) {
+        acc += dk * fk * fk;
+    }
+    Some(acc)
+}
+
 /// [`Transition::push_column`] on the rows' storage flattened, `n` columns a row, `j < n`:
 /// one copy for every state dimension. The six rows written out, each element at a
 /// fixed row offset (a loop over the rows cost the board 20 instructions an element).
@@ -1307,20 +1444,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         if i == j {
             return self.scaled_diag(i);
         }
-        let (a, b) = (i.min(j), i.max(j));
-        let (u, d) = (self.u.as_slice(), self.d.as_slice());
-        // k = b first (U(b, b) = 1: `U(a, b) · 1 · D_b` is `U(a, b) · D_b`), then rows a
-        // and b of U after column b, read as slices: the same terms in the same order.
-        let (Some(&uab), Some(&db)) = (u.get(a * N + b), d.get(b)) else {
-            return T::zero();
-        };
-        let mut acc = T::zero() + uab * db;
-        let ra = u.get(a * N + b + 1..(a + 1) * N).unwrap_or(&[]);
-        let rb = u.get(b * N + b + 1..(b + 1) * N).unwrap_or(&[]);
-        for ((&uak, &ubk), &dk) in ra.iter().zip(rb).zip(d.get(b + 1..).unwrap_or(&[])) {
-            acc += uak * ubk * dk;
-        }
-        acc
+        scaled_off_n(self.u.as_slice(), self.d.as_slice(), N, (i, j))
     }
 
     /// [`Self::scaled_at`] on the diagonal, `P_s(b, b) = D_b + Σ_{k>b} U(b, k)² D_k`:
@@ -1328,13 +1452,7 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// read with a stride instead of through a bounds check and a diagonal test per
     /// element (the σ of every estimate the engine reports is one of these).
     fn scaled_diag(&self, b: usize) -> T {
-        let (u, d) = (self.u.as_slice(), self.d.as_slice());
-        let mut acc = T::zero() + d.get(b).copied().unwrap_or_else(T::zero);
-        let row = u.get(b * N + b + 1..(b + 1) * N).unwrap_or(&[]);
-        for (&ubk, &dk) in row.iter().zip(d.get(b + 1..).unwrap_or(&[])) {
-            acc += ubk * ubk * dk;
-        }
-        acc
+        scaled_diag_n(self.u.as_slice(), self.d.as_slice(), N, b)
     }
 
     /// Covariance element (physical units).
@@ -1468,24 +1586,14 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// its parts) without the cancellation of forming `P`. `None` if a state is out of
     /// range.
     pub fn variance_along(&self, c: &[(usize, T)]) -> Option<T> {
-        let mut h = [T::zero(); N];
-        for &(i, ci) in c {
-            *h.get_mut(i)? += ci;
-        }
-        let mut f = [T::zero(); N];
+        let (mut h, mut f) = ([T::zero(); N], [T::zero(); N]);
         let factors = (
             self.u.as_slice(),
             self.xs.as_slice(),
             self.scale.as_slice(),
             self.pos.as_slice(),
         );
-        project(&mut f, (&h, 0, 0), factors);
-        // Over slices (nalgebra's iterator cost the board ≈ 20 instructions an element).
-        let mut acc = T::zero();
-        for (&dk, &fk) in self.d.as_slice().iter().zip(&f) {
-            acc += dk * fk * fk;
-        }
-        Some(acc)
+        variance_along_n(self.d.as_slice(), factors, c, [&mut h, &mut f])
     }
 
     /// `P ← P + α c cᵀ` (physical units; `c` by its non-zeros `(state, value)`, `α ≥ 0`)
@@ -1496,42 +1604,20 @@ impl<T: Real, const N: usize> Kalman<T, N> {
     /// state estimate does not change. A negative or non-finite `α`, or a state out of
     /// range, is refused (counted as non-finite).
     pub fn add_rank_one(&mut self, c: &[(usize, T)], alpha: T) {
-        // c in the internal order, scaled as a covariance's column (P_s = S⁻¹ P S⁻¹).
         let mut v = [T::zero(); N];
-        let mut in_range = alpha >= T::zero() && alpha.is_finite();
-        for &(i, ci) in c {
-            let a = self.internal(i);
-            match (v.get_mut(a), self.inv_scale.get(a)) {
-                (Some(e), Some(&inv)) => *e += ci * inv,
-                _ => in_range = false,
-            }
-        }
-        if !in_range {
-            self.health.non_finite += 1;
-            return;
-        }
-        let mut a = alpha;
-        let (u, d) = (self.u.as_mut_slice(), self.d.as_mut_slice());
-        for j in (0..N).rev() {
-            let s = v.get(j).copied().unwrap_or_else(T::zero);
-            let Some(dj) = d.get_mut(j) else { continue };
-            if s == T::zero() {
-                continue;
-            }
-            let dn = *dj + a * s * s;
-            let positive = dn > T::zero() && dn.is_finite();
-            if !positive {
-                continue;
-            }
-            let b = a * s / dn;
-            a = a * *dj / dn;
-            *dj = dn;
-            for (i, vi) in v.iter_mut().enumerate().take(j) {
-                if let Some(uij) = u.get_mut(i * N + j) {
-                    *vi -= s * *uij;
-                    *uij += b * *vi;
-                }
-            }
+        self.parts().add_rank_one(c, alpha, &mut v);
+    }
+
+    /// The factors borrowed for any `n` ([`Parts`]).
+    pub(crate) fn parts(&mut self) -> Parts<'_, T> {
+        Parts {
+            u: self.u.as_mut_slice(),
+            d: self.d.as_mut_slice(),
+            xs: self.xs.as_slice(),
+            scale: self.scale.as_slice(),
+            inv_scale: self.inv_scale.as_slice(),
+            pos: &self.pos,
+            health: &mut self.health,
         }
     }
 
