@@ -85,22 +85,12 @@ pub fn welch(x: &[f64], rate_hz: f64) -> Psd {
     if x.len() < n || rate_hz <= 0.0 {
         return Psd::default();
     }
-    let window: Vec<f64> = (0..n)
-        .map(|i| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / n as f64).cos())
-        .collect();
-    let w2: f64 = window.iter().map(|w| w * w).sum();
+    let (window, w2) = hann(n);
     let mut acc = vec![0.0; n / 2 + 1];
     let mut segments = 0usize;
     let mut start = 0;
     while start + n <= x.len() {
-        let seg = &x[start..start + n];
-        let mean = seg.iter().sum::<f64>() / n as f64;
-        let mut buf: Vec<Complex64> = seg
-            .iter()
-            .zip(&window)
-            .map(|(v, w)| Complex64::new((v - mean) * w, 0.0))
-            .collect();
-        fft(&mut buf);
+        let buf = windowed_spectrum(&x[start..start + n], &window);
         for (a, c) in acc.iter_mut().zip(buf.iter()) {
             *a += c.norm_sqr();
         }
@@ -114,6 +104,66 @@ pub fn welch(x: &[f64], rate_hz: f64) -> Psd {
         freq_hz: (0..=n / 2).map(|k| k as f64 * rate_hz / n as f64).collect(),
         level: acc.iter().map(|a| a * scale).collect(),
     }
+}
+
+/// The real part of the one-sided cross-spectral density matrix ((unit)²/Hz) of three
+/// channels sampled at `rate_hz`, averaged over the bins in `[from, to]` Hz (Welch: Hann
+/// window, half overlap, segment [`segment_len`], each segment's mean removed). Over a
+/// band where the channels are white it is their covariance density: `2 Σ / rate` for
+/// white noise of covariance `Σ`. `None` when the channels are shorter than one segment,
+/// of unequal length, or the band holds no bin.
+pub fn band_cross_density(
+    x: [&[f64]; 3],
+    rate_hz: f64,
+    from: f64,
+    to: f64,
+) -> Option<nalgebra::Matrix3<f64>> {
+    let len = x[0].len();
+    let n = segment_len(len);
+    if len < n || x.iter().any(|c| c.len() != len) || !(rate_hz > 0.0) {
+        return None;
+    }
+    let bins: Vec<usize> = (1..n / 2)
+        .filter(|&k| (from..=to).contains(&(k as f64 * rate_hz / n as f64)))
+        .collect();
+    if bins.is_empty() {
+        return None;
+    }
+    let (window, w2) = hann(n);
+    let mut acc = nalgebra::Matrix3::zeros();
+    let mut segments = 0usize;
+    let mut start = 0;
+    while start + n <= len {
+        let spectra = x.map(|c| windowed_spectrum(&c[start..start + n], &window));
+        for &k in &bins {
+            acc += nalgebra::Matrix3::from_fn(|i, j| (spectra[i][k] * spectra[j][k].conj()).re);
+        }
+        segments += 1;
+        start += n / 2;
+    }
+    // One-sided density of a bin: 2 |X_k|² / (rate Σw²).
+    Some(acc * (2.0 / (rate_hz * w2 * (segments * bins.len()) as f64)))
+}
+
+/// The Hann window of `n` samples and the sum of its squares.
+fn hann(n: usize) -> (Vec<f64>, f64) {
+    let window: Vec<f64> = (0..n)
+        .map(|i| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / n as f64).cos())
+        .collect();
+    let w2 = window.iter().map(|w| w * w).sum();
+    (window, w2)
+}
+
+/// The FFT of one segment, its mean removed and the window applied.
+fn windowed_spectrum(seg: &[f64], window: &[f64]) -> Vec<Complex64> {
+    let mean = seg.iter().sum::<f64>() / seg.len() as f64;
+    let mut buf: Vec<Complex64> = seg
+        .iter()
+        .zip(window)
+        .map(|(v, w)| Complex64::new((v - mean) * w, 0.0))
+        .collect();
+    fft(&mut buf);
+    buf
 }
 
 /// Sample autocorrelation of `x` at lags `0..=max_lag` (lag 0 is 1).

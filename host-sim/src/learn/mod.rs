@@ -120,9 +120,9 @@ pub fn window(rec: &Recording, seconds: f64) -> Recording {
 }
 
 /// The search's start when nothing is declared: the built-in model at the master's
-/// period, angular-rate matching only if the master gives its rate, and the gyro's
-/// random walk from the increments (the velocity random walk no larger than the
-/// accelerometer's white floor, which bounds it).
+/// period, angular-rate matching only if the master gives its rate, and the gyro's and
+/// the accelerometer's random walks from the increments (the velocity random walk from
+/// the accelerometers' white density along the lever arm, `increments` module doc).
 pub fn default_start(rec: &Recording, inc: Option<&IncrementNoise>) -> CalibConfig {
     let mut c = CalibConfig::default();
     if rec.meta.master_rate_hz > 0.0 {
@@ -141,7 +141,7 @@ pub fn default_start(rec: &Recording, inc: Option<&IncrementNoise>) -> CalibConf
         let (lo, hi) = Param::GyroArw.bounds();
         c.gyro_arw_rad_rs = inc.gyro_arw().clamp(lo, hi);
         let (lo, hi) = Param::AccelVrw.bounds();
-        c.accel_vrw_mps_rs = c.accel_vrw_mps_rs.min(inc.accel_floor()).clamp(lo, hi);
+        c.accel_vrw_mps_rs = inc.accel_vrw_mps_rs.clamp(lo, hi);
     }
     c
 }
@@ -242,7 +242,7 @@ pub fn learn(
             continue;
         }
         // The velocity random walk hides under the master's velocity noise: kept only
-        // where the likelihood resolves it, else the start (bounded by the increments).
+        // where the likelihood resolves it, else the start (read from the increments).
         let vrw_start = s.model.get(Param::AccelVrw);
         s.line(&[Param::AccelVrw], h);
         s.keep_only_if_resolved(Param::AccelVrw, vrw_start, IDENTIFIABLE_RELATIVE_SIGMA);
