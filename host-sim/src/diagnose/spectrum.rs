@@ -145,6 +145,43 @@ pub fn band_cross_density(
     Some(acc * (2.0 / (rate_hz * w2 * (segments * bins.len()) as f64)))
 }
 
+/// `x` (sampled at `rate_hz`) band-limited to `[from, to]` Hz: each Hann-windowed,
+/// half-overlapping segment (length [`segment_len`], its mean removed) keeps only the
+/// bins of the band, and the segments are added back (the windows sum to one). Only the
+/// stretch every window covers twice is returned (the first and last half segment
+/// dropped), where the filter is the same at every sample: a signal's ends do not ring
+/// into the band as they would through one FFT of the whole record. `None` when `x` is
+/// shorter than two segments.
+pub fn band_limited(x: &[f64], rate_hz: f64, from: f64, to: f64) -> Option<Vec<f64>> {
+    let n = segment_len(x.len());
+    if x.len() < 2 * n || !(rate_hz > 0.0) {
+        return None;
+    }
+    let (window, _) = hann(n);
+    let in_band = |k: usize| {
+        let f = k.min(n - k) as f64 * rate_hz / n as f64;
+        k > 0 && (from..=to).contains(&f)
+    };
+    let mut out = vec![0.0; x.len()];
+    let mut start = 0;
+    while start + n <= x.len() {
+        let mut buf = windowed_spectrum(&x[start..start + n], &window);
+        for (k, c) in buf.iter_mut().enumerate() {
+            if !in_band(k) {
+                *c = Complex64::new(0.0, 0.0);
+            }
+        }
+        // The inverse transform as the conjugate of the forward one of the conjugate.
+        buf.iter_mut().for_each(|c| *c = c.conj());
+        fft(&mut buf);
+        for (o, c) in out[start..start + n].iter_mut().zip(&buf) {
+            *o += c.re / n as f64;
+        }
+        start += n / 2;
+    }
+    Some(out[n / 2..start].to_vec())
+}
+
 /// The Hann window of `n` samples and the sum of its squares.
 fn hann(n: usize) -> (Vec<f64>, f64) {
     let window: Vec<f64> = (0..n)

@@ -21,7 +21,7 @@
 //! along it, so the accelerometers' band, white plus a part of rank two, has its least
 //! eigenvalue at the accelerometer's white density ([`IncrementNoise::accel_vrw_mps_rs`]).
 
-use crate::diagnose::spectrum::{band_cross_density, welch};
+use crate::diagnose::spectrum::{band_cross_density, band_limited, welch};
 use crate::recording::Recording;
 
 /// White-noise floors of the slave IMU from its increments.
@@ -200,15 +200,61 @@ fn inverse_square(f: f64) -> f64 {
     1.0 / (f * f)
 }
 
-/// The least eigenvalue of the three channels' band cross-spectral density
-/// ((unit/s)²/Hz, `x` their increments over `dt`): the white density of the direction
-/// where the channels hold nothing but white noise, when the rest has rank two. `None`
-/// when the recording is too short for a segment or the band holds no bin.
-fn least_white_density(x: [&[f64]; 3], dt: f64, from: f64, to: f64) -> Option<f64> {
-    let rate = x.map(|c| c.iter().map(|v| v / dt).collect::<Vec<f64>>());
-    let s = band_cross_density([&rate[0], &rate[1], &rate[2]], 1.0 / dt, from, to)?;
-    let least = s.symmetric_eigenvalues().min();
-    least.is_finite().then_some(least)
+/// The accelerometers' white density ((m/s²)²/Hz) along the lever arm, from their
+/// increments `dv` over `dt` (module doc). The direction is the least eigenvector of
+/// the band's cross-spectral density; along it two things besides the noise are left,
+/// each taken out: the bending turned into it by the flexure angle itself (white:
+/// [`turning_leak`]) and the bending's rate turned by the vehicle's (`ω × R θ̇`, read as
+/// interval means of a random walk: the red part of [`white_level`]). Where what is left
+/// is not positive, the least eigenvalue, an upper bound. `None` when the recording is
+/// too short for two segments or the band holds no bin.
+fn along_arm_white_density(dv: [&[f64]; 3], dt: f64, from: f64, to: f64) -> Option<f64> {
+    let fs = 1.0 / dt;
+    let s = band_cross_density(dv, fs, from, to)? / (dt * dt);
+    let eigen = s.symmetric_eigen();
+    let mut order = [0, 1, 2];
+    order.sort_by(|&a, &b| eigen.eigenvalues[a].total_cmp(&eigen.eigenvalues[b]));
+    let least = eigen.eigenvalues[order[0]];
+    // The increments along the arm first, then across it.
+    let projected = order.map(|k| {
+        let e = eigen.eigenvectors.column(k);
+        (0..dv[0].len())
+            .map(|i| e[0] * dv[0][i] + e[1] * dv[1][i] + e[2] * dv[2][i])
+            .collect::<Vec<f64>>()
+    });
+    let (f, d) = rate_density(&projected[0], dt);
+    let along = white_level(&f, &d, from, to, interval_mean_random_walk(dt)).density;
+    let white = along - turning_leak(&projected, fs, from, to)? * least;
+    Some(if white > 0.0 { white } else { least })
+}
+
+/// The fraction of the band power along the arm (`z[0]`) that is the bending across it
+/// (`z[1]`, `z[2]`) turned into it by the flexure angle. The flexure turns the arm's
+/// direction by `θ⊥`, so along it lies `c(t)·u(t)`, `u` the bending's white part across
+/// the arm, `c ∝ θ⊥` slow against the band; it is white itself and the band's white
+/// level holds it. A product of a slow factor and a Gaussian `u` shows in the fourth
+/// moments: with `p` the band-limited increments along the arm, `E[p² u_k²] −
+/// E[p²] E[u_k²] = 2 E[c_k²] E[u_k²]²` (Isserlis; the noise along the arm independent of
+/// `u`), and the part of `E[p²]` it makes is `Σ_k E[c_k²] E[u_k²]`. `None` when the
+/// recording is too short for [`band_limited`] or a direction holds no power.
+fn turning_leak(z: &[Vec<f64>; 3], fs: f64, from: f64, to: f64) -> Option<f64> {
+    let [p, u1, u2] = [&z[0], &z[1], &z[2]].map(|c| band_limited(c, fs, from, to));
+    let (p, u) = (p?, [u1?, u2?]);
+    let mean = |v: &mut dyn Iterator<Item = f64>| {
+        let (sum, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+        sum / n.max(1) as f64
+    };
+    let p2 = mean(&mut p.iter().map(|v| v * v));
+    let mut leak = 0.0;
+    for u in &u {
+        let u2 = mean(&mut u.iter().map(|v| v * v));
+        let p2u2 = mean(&mut p.iter().zip(u).map(|(a, b)| a * a * b * b));
+        if !(u2 > 0.0) {
+            return None;
+        }
+        leak += (p2u2 - p2 * u2) / (2.0 * u2);
+    }
+    (p2 > 0.0).then(|| (leak / p2).clamp(0.0, 1.0))
 }
 
 /// One-sided density ((unit/s)²/Hz) of the rate `x_k / dt` of one increment axis.
@@ -256,13 +302,13 @@ pub fn increment_noise(rec: &Recording, max_samples: usize) -> Result<IncrementN
         // arm, white itself: its floor is a bound whatever the red part's shape.
         accel[k] = (white_level(&f, &d, from, to, inverse_square).density / 2.0).sqrt();
     }
-    let least = least_white_density([&dv[0], &dv[1], &dv[2]], dt, from, to)
+    let along = along_arm_white_density([&dv[0], &dv[1], &dv[2]], dt, from, to)
         .ok_or("no accelerometer band to read the velocity random walk from")?;
     Ok(IncrementNoise {
         gyro_arw_rad_rs: gyro,
         gyro_arw_is_upper_bound: gyro_bound,
         accel_floor_mps_rs: accel,
-        accel_vrw_mps_rs: (least.max(0.0) / 2.0).sqrt(),
+        accel_vrw_mps_rs: (along.max(0.0) / 2.0).sqrt(),
         band_from_hz: from,
         band_to_hz: to,
     })
