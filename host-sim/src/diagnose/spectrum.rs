@@ -251,6 +251,35 @@ mod tests {
     }
 
     #[test]
+    fn band_cross_density_of_white_channels_is_their_covariance_density() {
+        // x, y = x + z, z: covariance [[1, 1, 0], [1, 2, 1], [0, 1, 1]] at 100 Hz.
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let mut normal = move || rng.sample::<f64, _>(StandardNormal);
+        let (x, z): (Vec<f64>, Vec<f64>) = (0..100_000).map(|_| (normal(), normal())).unzip();
+        let y: Vec<f64> = x.iter().zip(&z).map(|(a, b)| a + b).collect();
+        let s = band_cross_density([&x, &y, &z], 100.0, 10.0, 40.0).unwrap();
+        let want = nalgebra::Matrix3::new(1.0, 1.0, 0.0, 1.0, 2.0, 1.0, 0.0, 1.0, 1.0) * 0.02;
+        assert!((s - want).abs().max() < 0.001, "{s}");
+        // No bin in the band, unequal lengths, too short: none.
+        assert!(band_cross_density([&x, &y, &z], 100.0, 60.0, 70.0).is_none());
+        assert!(band_cross_density([&x, &y, &z[..10]], 100.0, 10.0, 40.0).is_none());
+        assert!(band_cross_density([&x[..10], &y[..10], &z[..10]], 100.0, 10.0, 40.0).is_none());
+    }
+
+    #[test]
+    fn band_limiting_keeps_a_tone_in_the_band_and_drops_one_outside() {
+        let tone = |f: f64, k: usize| (2.0 * std::f64::consts::PI * f * k as f64 / 100.0).sin();
+        let x: Vec<f64> = (0..40_000)
+            .map(|k| 5.0 * tone(0.3, k) + tone(30.0, k))
+            .collect();
+        let b = band_limited(&x, 100.0, 25.0, 45.0).unwrap();
+        // The middle of the record: the in-band tone, its mean square ½, the other gone.
+        let ms = b.iter().map(|v| v * v).sum::<f64>() / b.len() as f64;
+        assert!((ms - 0.5).abs() < 0.01, "{ms}");
+        assert!(band_limited(&x[..100], 100.0, 25.0, 45.0).is_none());
+    }
+
+    #[test]
     fn fft_matches_a_direct_dft() {
         let x: Vec<Complex64> = (0..16)
             .map(|k| Complex64::new((k as f64 * 0.7).sin(), (k as f64 * 0.3).cos()))

@@ -19,7 +19,9 @@
 //! noise over the band (`docs/model-learning.md`, session 21). What reads it is the
 //! arm's own direction: a bending `R = −[r0]×/2` moves the slave across its arm, never
 //! along it, so the accelerometers' band, white plus a part of rank two, has its least
-//! eigenvalue at the accelerometer's white density ([`IncrementNoise::accel_vrw_mps_rs`]).
+//! eigenvector along the arm, and there the accelerometer's white density, once the
+//! bending that the flexure angle and the vehicle's rate turn into that direction are
+//! taken out ([`IncrementNoise::accel_vrw_mps_rs`]).
 
 use crate::diagnose::spectrum::{band_cross_density, band_limited, welch};
 use crate::recording::Recording;
@@ -36,15 +38,13 @@ pub struct IncrementNoise {
     /// Accelerometer white floor per axis (m/s/√s): an upper bound of the velocity
     /// random walk (see the module doc).
     pub accel_floor_mps_rs: [f64; 3],
-    /// The velocity random walk (m/s/√s) from the least eigenvalue of the three
-    /// accelerometers' cross-spectral density over the band ([`least_white_density`]):
-    /// the white density along the lever arm, where the flexure's bending puts nothing.
-    /// Biased up only by the bending's second order, the flexure angle turning that
-    /// direction (`|r0|²/4 Σ P_ij² σ_i² q_j`, `P` the projection across the arm, `σ_i²`
-    /// and `q_j` the flexure's angle variance and acceleration density per axis): on 30
-    /// blind draws within 1 % in the median, +70 % at most (a small VRW under a large
-    /// flexure), where the floors were 6–800× the draw. A bending of full rank, or a
-    /// vibration in all three axes, make it an upper bound.
+    /// The velocity random walk (m/s/√s): the accelerometers' white density along the
+    /// lever arm, where the flexure's bending puts nothing
+    /// ([`along_arm_white_density`]). On 30 blind draws within 2.6 % of the draw
+    /// (median 0.9 %), and within 11 % on ten draws with a VRW a tenth of the default
+    /// under the largest flexures, where the per-axis floors were 6–2 000× the draw
+    /// (`docs/model-learning.md`, session 21). An upper bound where the bending moves the
+    /// slave along its arm too, or a vibration fills all three axes.
     pub accel_vrw_mps_rs: f64,
     /// Lower edge of the fitted band (Hz).
     pub band_from_hz: f64,
@@ -401,6 +401,72 @@ mod tests {
         let n = (w.density / 2.0).sqrt();
         assert!(2.0 * n_arw * n_arw < 0.1 * mean, "{mean}");
         assert!(!w.upper_bound && (n / n_arw - 1.0).abs() < 0.2, "{n}");
+    }
+
+    /// Accelerometer increments over `dt`: a white noise of VRW `vrw` on every axis, and a
+    /// bending across the arm `r` (white, `across` times the noise's density on each of
+    /// its axes) turned by a slow angle (`turn` rad, about x and y at 0.2 and 0.13 Hz), as
+    /// the flexure angle turns its own bending.
+    fn bent_accelerometers(vrw: f64, across: f64, turn: f64, n: usize) -> [Vec<f64>; 3] {
+        use nalgebra::Vector3;
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let mut normal3 = move || Vector3::from_fn(|_, _| rng.sample(rand_distr::StandardNormal));
+        let dt = 0.005f64;
+        let arm = Vector3::new(1.0, 2.0, -2.0) / 3.0;
+        let sigma = vrw * dt.sqrt();
+        let mut out = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        for i in 0..n {
+            let t = i as f64 * dt;
+            let bend = normal3().cross(&arm) * (sigma * across.sqrt());
+            let angle = Vector3::new(
+                (2.0 * std::f64::consts::PI * 0.2 * t).sin(),
+                (2.0 * std::f64::consts::PI * 0.13 * t).cos(),
+                0.0,
+            ) * turn;
+            let dv = normal3() * sigma + bend + angle.cross(&bend);
+            for k in 0..3 {
+                out[k][i] = dv[k];
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn the_white_density_along_the_arm_is_read_under_a_bending_across_it() {
+        // A bending 10⁴ times the noise across the arm, turned by 15 mrad: along the arm
+        // it leaves about twice the noise's own density.
+        let (vrw, dt, n) = (1e-5, 0.005, 120_000);
+        let dv = bent_accelerometers(vrw, 1e4, 0.015, n);
+        let (from, to) = (50.0, 90.0);
+        let read = (along_arm_white_density([&dv[0], &dv[1], &dv[2]], dt, from, to)
+            .expect("a band")
+            / 2.0)
+            .sqrt();
+        assert!((read / vrw - 1.0).abs() < 0.05, "read {read:e}");
+        // The least eigenvalue alone holds the turned bending; one axis holds the bending.
+        let s = band_cross_density([&dv[0], &dv[1], &dv[2]], 1.0 / dt, from, to).unwrap();
+        let least = (s.symmetric_eigenvalues().min() / (dt * dt) / 2.0).sqrt();
+        assert!(least / vrw - 1.0 > 0.3, "least eigenvalue {least:e}");
+        let (f, d) = rate_density(&dv[0], dt);
+        let floor = (white_level(&f, &d, from, to, inverse_square).density / 2.0).sqrt();
+        assert!(floor > 30.0 * vrw, "floor {floor:e}");
+        // Unturned, the least eigenvalue is the noise, and so is the reading.
+        let dv = bent_accelerometers(vrw, 1e4, 0.0, n);
+        let read =
+            (along_arm_white_density([&dv[0], &dv[1], &dv[2]], dt, from, to).unwrap() / 2.0).sqrt();
+        assert!((read / vrw - 1.0).abs() < 0.05, "read unturned {read:e}");
+    }
+
+    #[test]
+    fn white_accelerometers_read_their_own_density() {
+        // No bending at all: the least of three equal white densities.
+        let (vrw, dt) = (3e-4, 0.005);
+        let dv = bent_accelerometers(vrw, 0.0, 0.0, 60_000);
+        let read = (along_arm_white_density([&dv[0], &dv[1], &dv[2]], dt, 50.0, 90.0).unwrap()
+            / 2.0)
+            .sqrt();
+        assert!((read / vrw - 1.0).abs() < 0.05, "read {read:e}");
     }
 
     #[test]
