@@ -120,7 +120,7 @@ pub fn band_cross_density(
 ) -> Option<nalgebra::Matrix3<f64>> {
     let len = x[0].len();
     let n = segment_len(len);
-    if len < n || x.iter().any(|c| c.len() != len) || !(rate_hz > 0.0) {
+    if len < n || x.iter().any(|c| c.len() != len) || !(rate_hz.is_finite() && rate_hz > 0.0) {
         return None;
     }
     let bins: Vec<usize> = (1..n / 2)
@@ -154,7 +154,7 @@ pub fn band_cross_density(
 /// shorter than two segments.
 pub fn band_limited(x: &[f64], rate_hz: f64, from: f64, to: f64) -> Option<Vec<f64>> {
     let n = segment_len(x.len());
-    if x.len() < 2 * n || !(rate_hz > 0.0) {
+    if x.len() < 2 * n || !(rate_hz.is_finite() && rate_hz > 0.0) {
         return None;
     }
     let (window, _) = hann(n);

@@ -249,7 +249,7 @@ fn turning_leak(z: &[Vec<f64>; 3], fs: f64, from: f64, to: f64) -> Option<f64> {
     for u in &u {
         let u2 = mean(&mut u.iter().map(|v| v * v));
         let p2u2 = mean(&mut p.iter().zip(u).map(|(a, b)| a * a * b * b));
-        if !(u2 > 0.0) {
+        if !(u2.is_finite() && u2 > 0.0) {
             return None;
         }
         leak += (p2u2 - p2 * u2) / (2.0 * u2);
@@ -415,21 +415,19 @@ mod tests {
         let dt = 0.005f64;
         let arm = Vector3::new(1.0, 2.0, -2.0) / 3.0;
         let sigma = vrw * dt.sqrt();
-        let mut out = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
-        for i in 0..n {
-            let t = i as f64 * dt;
-            let bend = normal3().cross(&arm) * (sigma * across.sqrt());
-            let angle = Vector3::new(
-                (2.0 * std::f64::consts::PI * 0.2 * t).sin(),
-                (2.0 * std::f64::consts::PI * 0.13 * t).cos(),
-                0.0,
-            ) * turn;
-            let dv = normal3() * sigma + bend + angle.cross(&bend);
-            for k in 0..3 {
-                out[k][i] = dv[k];
-            }
-        }
-        out
+        let samples: Vec<Vector3<f64>> = (0..n)
+            .map(|i| {
+                let t = i as f64 * dt;
+                let bend = normal3().cross(&arm) * (sigma * across.sqrt());
+                let angle = Vector3::new(
+                    (2.0 * std::f64::consts::PI * 0.2 * t).sin(),
+                    (2.0 * std::f64::consts::PI * 0.13 * t).cos(),
+                    0.0,
+                ) * turn;
+                normal3() * sigma + bend + angle.cross(&bend)
+            })
+            .collect();
+        [0, 1, 2].map(|k| samples.iter().map(|v| v[k]).collect())
     }
 
     #[test]
