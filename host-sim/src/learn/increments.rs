@@ -11,11 +11,11 @@
 //! is fitted as `a + b·x(f)`, `x` that shape (least squares on the Welch estimate), and
 //! `N = √(a/2)`. The same fit on one accelerometer axis gives an *upper bound* of the
 //! velocity random walk only: the flexure's angular acceleration acting on the lever arm
-//! (`R θ̈`) is itself white in the slave's specific force, 10²–10⁶ times the
+//! (`R θ̈`) is itself white in the slave's specific force, 40–6·10⁵ times the
 //! accelerometer's noise on blind draws, so it cannot be told from that noise on one axis.
 //! Nor can the slave's gyros remove it: they read the flexure's rate as interval means,
 //! the accelerometer its changes between interval ends, and the two are coherent only
-//! to `3(1 + cos x) / (2(2 + cos x))`, `x = 2πf·dt`: the part left is 10²–10⁵ times the
+//! to `3(1 + cos x) / (2(2 + cos x))`, `x = 2πf·dt`: the part left is 30–5·10⁵ times the
 //! noise over the band (`docs/model-learning.md`, session 21). What reads it is the
 //! arm's own direction: a bending `R = −[r0]×/2` moves the slave across its arm, never
 //! along it, so the accelerometers' band, white plus a part of rank two, has its least
