@@ -1,8 +1,8 @@
 //! The accelerometer's velocity random walk read from the slave's increments against
 //! the blind draw's: per recording the drawn VRW, the per-axis white floor (the median
-//! axis, an upper bound) and the least-eigenvalue reading the learner starts from, with
-//! their relative errors, then the median and largest |error| of each
-//! (`docs/model-learning.md`, session 21). Each recording `DIR` is scored against the
+//! axis, an upper bound) and the reading along the arm the learner starts from (marked
+//! where it is only a bound), with their relative errors, then the median and largest
+//! |error| of each (`docs/model-learning.md`, session 21). Each recording `DIR` is scored against the
 //! drawn scenario `simulate --blind` wrote beside it, `DIR.drawn.toml`; the reading
 //! itself sees only the recording.
 //!
@@ -13,8 +13,9 @@ use flexcal_sim::recording::read_recording;
 use flexcal_sim::sim::scenario::Scenario;
 use std::path::Path;
 
-/// (drawn, floor, reading) in m/s/√s for one recording.
-fn measure(dir: &str) -> Result<(f64, f64, f64), String> {
+/// (drawn, floor, reading) in m/s/√s for one recording, and whether the reading is
+/// only a bound.
+fn measure(dir: &str) -> Result<(f64, f64, f64, bool), String> {
     let rec = read_recording(Path::new(dir)).map_err(|e| format!("{dir}: {e}"))?;
     let drawn = Scenario::load(&format!("{}.drawn.toml", dir.trim_end_matches('/')))?;
     let inc = increment_noise(&rec, 200_000)?;
@@ -22,6 +23,7 @@ fn measure(dir: &str) -> Result<(f64, f64, f64), String> {
         drawn.slave_imu.accel_vrw_mps_rh / 60.0,
         inc.accel_floor(),
         inc.accel_vrw_mps_rs,
+        inc.accel_vrw_is_upper_bound,
     ))
 }
 
@@ -41,11 +43,12 @@ fn main() {
     println!("|---|---|---|---|---|---|");
     for dir in std::env::args().skip(1) {
         match measure(&dir) {
-            Ok((drawn, floor, read)) => {
+            Ok((drawn, floor, read, bound)) => {
                 let (ef, er) = (floor / drawn - 1.0, read / drawn - 1.0);
                 println!(
-                    "| {dir} | {drawn:.3e} | {floor:.3e} | {:+.0} % | {read:.3e} | {:+.1} % |",
+                    "| {dir} | {drawn:.3e} | {floor:.3e} | {:+.0} % | {read:.3e}{} | {:+.1} % |",
                     100.0 * ef,
+                    if bound { " (bound)" } else { "" },
                     100.0 * er
                 );
                 floor_err.push(ef.abs());

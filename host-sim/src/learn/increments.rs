@@ -46,6 +46,11 @@ pub struct IncrementNoise {
     /// (`docs/model-learning.md`, session 21). An upper bound where the bending moves the
     /// slave along its arm too, or a vibration fills all three axes.
     pub accel_vrw_mps_rs: f64,
+    /// Whether [`Self::accel_vrw_mps_rs`] is only an upper bound: the band along the arm
+    /// is not white plus the red part, or nothing is left of it once the turned bending
+    /// is taken out (the measured vehicle recording: its band falls 100-fold from 25 to
+    /// 45 Hz).
+    pub accel_vrw_is_upper_bound: bool,
     /// Lower edge of the fitted band (Hz).
     pub band_from_hz: f64,
     /// Upper edge of the fitted band (Hz).
@@ -205,10 +210,12 @@ fn inverse_square(f: f64) -> f64 {
 /// the band's cross-spectral density; along it two things besides the noise are left,
 /// each taken out: the bending turned into it by the flexure angle itself (white:
 /// [`turning_leak`]) and the bending's rate turned by the vehicle's (`ω × R θ̇`, read as
-/// interval means of a random walk: the red part of [`white_level`]). Where what is left
-/// is not positive, the least eigenvalue, an upper bound. `None` when the recording is
-/// too short for two segments or the band holds no bin.
-fn along_arm_white_density(dv: [&[f64]; 3], dt: f64, from: f64, to: f64) -> Option<f64> {
+/// interval means of a random walk: the red part of [`white_level`]). Where the band
+/// along the arm is not white plus that red part (a vehicle's vibration, a sensor's
+/// roll-off: [`white_level`]'s bound) or what is left is not positive, the least
+/// eigenvalue, flagged as an upper bound. `None` when the recording is too short for two
+/// segments or the band holds no bin.
+fn along_arm_white_density(dv: [&[f64]; 3], dt: f64, from: f64, to: f64) -> Option<WhiteLevel> {
     let fs = 1.0 / dt;
     let s = band_cross_density(dv, fs, from, to)? / (dt * dt);
     let eigen = s.symmetric_eigen();
@@ -223,9 +230,19 @@ fn along_arm_white_density(dv: [&[f64]; 3], dt: f64, from: f64, to: f64) -> Opti
             .collect::<Vec<f64>>()
     });
     let (f, d) = rate_density(&projected[0], dt);
-    let along = white_level(&f, &d, from, to, interval_mean_random_walk(dt)).density;
-    let white = along - turning_leak(&projected, fs, from, to)? * least;
-    Some(if white > 0.0 { white } else { least })
+    let along = white_level(&f, &d, from, to, interval_mean_random_walk(dt));
+    let white = along.density - turning_leak(&projected, fs, from, to)? * least;
+    Some(if along.upper_bound || white <= 0.0 {
+        WhiteLevel {
+            density: least,
+            upper_bound: true,
+        }
+    } else {
+        WhiteLevel {
+            density: white,
+            upper_bound: false,
+        }
+    })
 }
 
 /// The fraction of the band power along the arm (`z[0]`) that is the bending across it
@@ -308,7 +325,8 @@ pub fn increment_noise(rec: &Recording, max_samples: usize) -> Result<IncrementN
         gyro_arw_rad_rs: gyro,
         gyro_arw_is_upper_bound: gyro_bound,
         accel_floor_mps_rs: accel,
-        accel_vrw_mps_rs: (along.max(0.0) / 2.0).sqrt(),
+        accel_vrw_mps_rs: (along.density.max(0.0) / 2.0).sqrt(),
+        accel_vrw_is_upper_bound: along.upper_bound,
         band_from_hz: from,
         band_to_hz: to,
     })
@@ -437,11 +455,12 @@ mod tests {
         let (vrw, dt, n) = (1e-5, 0.005, 120_000);
         let dv = bent_accelerometers(vrw, 1e4, 0.015, n);
         let (from, to) = (50.0, 90.0);
-        let read = (along_arm_white_density([&dv[0], &dv[1], &dv[2]], dt, from, to)
-            .expect("a band")
-            / 2.0)
-            .sqrt();
-        assert!((read / vrw - 1.0).abs() < 0.05, "read {read:e}");
+        let w = along_arm_white_density([&dv[0], &dv[1], &dv[2]], dt, from, to).expect("a band");
+        let read = (w.density / 2.0).sqrt();
+        assert!(
+            !w.upper_bound && (read / vrw - 1.0).abs() < 0.05,
+            "read {read:e}"
+        );
         // The least eigenvalue alone holds the turned bending; one axis holds the bending.
         let s = band_cross_density([&dv[0], &dv[1], &dv[2]], 1.0 / dt, from, to).unwrap();
         let least = (s.symmetric_eigenvalues().min() / (dt * dt) / 2.0).sqrt();
@@ -451,9 +470,12 @@ mod tests {
         assert!(floor > 30.0 * vrw, "floor {floor:e}");
         // Unturned, the least eigenvalue is the noise, and so is the reading.
         let dv = bent_accelerometers(vrw, 1e4, 0.0, n);
-        let read =
-            (along_arm_white_density([&dv[0], &dv[1], &dv[2]], dt, from, to).unwrap() / 2.0).sqrt();
-        assert!((read / vrw - 1.0).abs() < 0.05, "read unturned {read:e}");
+        let w = along_arm_white_density([&dv[0], &dv[1], &dv[2]], dt, from, to).unwrap();
+        let read = (w.density / 2.0).sqrt();
+        assert!(
+            !w.upper_bound && (read / vrw - 1.0).abs() < 0.05,
+            "read unturned {read:e}"
+        );
     }
 
     #[test]
@@ -461,10 +483,12 @@ mod tests {
         // No bending at all: the least of three equal white densities.
         let (vrw, dt) = (3e-4, 0.005);
         let dv = bent_accelerometers(vrw, 0.0, 0.0, 60_000);
-        let read = (along_arm_white_density([&dv[0], &dv[1], &dv[2]], dt, 50.0, 90.0).unwrap()
-            / 2.0)
-            .sqrt();
-        assert!((read / vrw - 1.0).abs() < 0.05, "read {read:e}");
+        let w = along_arm_white_density([&dv[0], &dv[1], &dv[2]], dt, 50.0, 90.0).unwrap();
+        let read = (w.density / 2.0).sqrt();
+        assert!(
+            !w.upper_bound && (read / vrw - 1.0).abs() < 0.05,
+            "read {read:e}"
+        );
     }
 
     #[test]
@@ -474,6 +498,7 @@ mod tests {
             gyro_arw_is_upper_bound,
             accel_floor_mps_rs: [0.0; 3],
             accel_vrw_mps_rs: 0.0,
+            accel_vrw_is_upper_bound: true,
             band_from_hz: 100.0,
             band_to_hz: 180.0,
         };
