@@ -120,10 +120,9 @@ pub fn window(rec: &Recording, seconds: f64) -> Recording {
 }
 
 /// The search's start when nothing is declared: the built-in model at the master's
-/// period, angular-rate matching only if the master gives its rate, and the gyro's and
-/// the accelerometer's random walks from the increments (the velocity random walk from
-/// the accelerometers' white density along the lever arm, `increments` module doc; where
-/// that is only a bound, no larger than the built-in value).
+/// period, angular-rate matching only if the master gives its rate, and the gyro's
+/// random walk from the increments (the velocity random walk no larger than the
+/// accelerometer's white floor, which bounds it).
 pub fn default_start(rec: &Recording, inc: Option<&IncrementNoise>) -> CalibConfig {
     let mut c = CalibConfig::default();
     if rec.meta.master_rate_hz > 0.0 {
@@ -142,16 +141,12 @@ pub fn default_start(rec: &Recording, inc: Option<&IncrementNoise>) -> CalibConf
         let (lo, hi) = Param::GyroArw.bounds();
         c.gyro_arw_rad_rs = inc.gyro_arw().clamp(lo, hi);
         let (lo, hi) = Param::AccelVrw.bounds();
-        // Read along the arm it is the start; where that is only a bound (a band that is
-        // not white: the measured vehicle's, whose accelerometer biases moved by 11σ
-        // from a start at its bound of 8.9e-3 m/s/√s), no larger than the built-in value.
-        let read = inc.accel_vrw_mps_rs;
-        c.accel_vrw_mps_rs = if inc.accel_vrw_is_upper_bound {
-            c.accel_vrw_mps_rs.min(read)
-        } else {
-            read
-        }
-        .clamp(lo, hi);
+        // Not yet the reading along the arm (`IncrementNoise::accel_vrw_mps_rs`): started
+        // from it, the 50-run's VRW error fell from 80 % to 0.7 %, but two blind
+        // diagnoses regressed (draw 103's lever arm 5.2σ off; draw 107's accelerometer
+        // scale factor leading where the test expects the gyro's), not yet traced
+        // (`docs/model-learning.md`, session 21).
+        c.accel_vrw_mps_rs = c.accel_vrw_mps_rs.min(inc.accel_floor()).clamp(lo, hi);
     }
     c
 }
@@ -252,7 +247,7 @@ pub fn learn(
             continue;
         }
         // The velocity random walk hides under the master's velocity noise: kept only
-        // where the likelihood resolves it, else the start (read from the increments).
+        // where the likelihood resolves it, else the start (bounded by the increments).
         let vrw_start = s.model.get(Param::AccelVrw);
         s.line(&[Param::AccelVrw], h);
         s.keep_only_if_resolved(Param::AccelVrw, vrw_start, IDENTIFIABLE_RELATIVE_SIGMA);
