@@ -1,8 +1,9 @@
 //! The accelerometer's velocity random walk read from the slave's increments against
 //! the blind draw's: per recording the drawn VRW, the per-axis white floor (the median
-//! axis, an upper bound) and the reading along the arm the learner starts from (marked
-//! where it is only a bound), with their relative errors, then the median and largest
-//! |error| of each (`docs/model-learning.md`, session 21). Each recording `DIR` is scored against the
+//! axis, an upper bound) and the reading along the arm
+//! (`IncrementNoise::accel_vrw_mps_rs`, marked where it is only a bound), with their
+//! relative errors, then the median and largest |error| of each
+//! (`docs/model-learning.md`, session 21). Each recording `DIR` is scored against the
 //! drawn scenario `simulate --blind` wrote beside it, `DIR.drawn.toml`; the reading
 //! itself sees only the recording.
 //!
