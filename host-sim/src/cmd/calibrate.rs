@@ -145,12 +145,14 @@ pub fn learn_and_say(
     );
     if let Some(inc) = &l.increments {
         eprintln!(
-            "flexcal:   from the increments ({:.0}-{:.0} Hz): gyro angle random walk {:.3e} rad/√s (axes {:.3e}), accelerometer white floor {:.3e} m/s/√s",
+            "flexcal:   from the increments ({:.0}-{:.0} Hz): gyro angle random walk {:.3e} rad/√s (axes {:.3e}), accelerometer white floor {:.3e} m/s/√s, velocity random walk along the arm {:.3e} m/s/√s{}",
             inc.band_from_hz,
             inc.band_to_hz,
             inc.gyro_arw(),
             inc.gyro_arw_rad_rs.map(|v| (v * 1e9).round() / 1e9)[0],
-            inc.accel_floor()
+            inc.accel_floor(),
+            inc.accel_vrw_mps_rs,
+            if inc.accel_vrw_is_upper_bound { " (a bound)" } else { "" }
         );
     }
     match &l.mounting {

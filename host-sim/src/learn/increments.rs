@@ -9,13 +9,21 @@
 //! over the IMU intervals, whose spectrum near the Nyquist frequency is not `1/f²`
 //! ([`interval_mean_random_walk`]). So the rate spectrum over the top half of the band
 //! is fitted as `a + b·x(f)`, `x` that shape (least squares on the Welch estimate), and
-//! `N = √(a/2)`. The same fit on the accelerometer gives
-//! an *upper bound* of the velocity random walk only: the flexure's angular
-//! acceleration acting on the lever arm (`R θ̈`) is itself white in the slave's
-//! specific force, so it cannot be told from the accelerometer's noise there; the
-//! likelihood search decides the velocity random walk (`super::search`).
+//! `N = √(a/2)`. The same fit on one accelerometer axis gives an *upper bound* of the
+//! velocity random walk only: the flexure's angular acceleration acting on the lever arm
+//! (`R θ̈`) is itself white in the slave's specific force, 40–6·10⁵ times the
+//! accelerometer's noise on blind draws, so it cannot be told from that noise on one axis.
+//! Nor can the slave's gyros remove it: they read the flexure's rate as interval means,
+//! the accelerometer its changes between interval ends, and the two are coherent only
+//! to `3(1 + cos x) / (2(2 + cos x))`, `x = 2πf·dt`: the part left is 30–5·10⁵ times the
+//! noise over the band (`docs/model-learning.md`, session 21). What reads it is the
+//! arm's own direction: a bending `R = −[r0]×/2` moves the slave across its arm, never
+//! along it, so the accelerometers' band, white plus a part of rank two, has its least
+//! eigenvector along the arm, and there the accelerometer's white density, once the
+//! bending that the flexure angle and the vehicle's rate turn into that direction are
+//! taken out ([`IncrementNoise::accel_vrw_mps_rs`]).
 
-use crate::diagnose::spectrum::welch;
+use crate::diagnose::spectrum::{band_cross_density, band_limited, welch};
 use crate::recording::Recording;
 
 /// White-noise floors of the slave IMU from its increments.
@@ -30,6 +38,19 @@ pub struct IncrementNoise {
     /// Accelerometer white floor per axis (m/s/√s): an upper bound of the velocity
     /// random walk (see the module doc).
     pub accel_floor_mps_rs: [f64; 3],
+    /// The velocity random walk (m/s/√s): the accelerometers' white density along the
+    /// lever arm, where the flexure's bending puts nothing
+    /// ([`along_arm_white_density`]). On 30 blind draws within 2.6 % of the draw
+    /// (median 0.9 %), and within 11 % on ten draws with a VRW a tenth of the default
+    /// under the largest flexures, where the per-axis floors were 6–2 000× the draw
+    /// (`docs/model-learning.md`, session 21). An upper bound where the bending moves the
+    /// slave along its arm too, or a vibration fills all three axes.
+    pub accel_vrw_mps_rs: f64,
+    /// Whether [`Self::accel_vrw_mps_rs`] is only an upper bound: the band along the arm
+    /// is not white plus the red part, or nothing is left of it once the turned bending
+    /// is taken out (the measured vehicle recording: its band falls 100-fold from 25 to
+    /// 45 Hz).
+    pub accel_vrw_is_upper_bound: bool,
     /// Lower edge of the fitted band (Hz).
     pub band_from_hz: f64,
     /// Upper edge of the fitted band (Hz).
@@ -184,6 +205,75 @@ fn inverse_square(f: f64) -> f64 {
     1.0 / (f * f)
 }
 
+/// The accelerometers' white density ((m/s²)²/Hz) along the lever arm, from their
+/// increments `dv` over `dt` (module doc). The direction is the least eigenvector of
+/// the band's cross-spectral density; along it two things besides the noise are left,
+/// each taken out: the bending turned into it by the flexure angle itself (white:
+/// [`turning_leak`]) and the bending's rate turned by the vehicle's (`ω × R θ̇`, read as
+/// interval means of a random walk: the red part of [`white_level`]). Where the band
+/// along the arm is not white plus that red part (a vehicle's vibration, a sensor's
+/// roll-off: [`white_level`]'s bound) or what is left is not positive, the least
+/// eigenvalue, flagged as an upper bound. `None` when the recording is too short for two
+/// segments or the band holds no bin.
+fn along_arm_white_density(dv: [&[f64]; 3], dt: f64, from: f64, to: f64) -> Option<WhiteLevel> {
+    let fs = 1.0 / dt;
+    let s = band_cross_density(dv, fs, from, to)? / (dt * dt);
+    let eigen = s.symmetric_eigen();
+    let mut order = [0, 1, 2];
+    order.sort_by(|&a, &b| eigen.eigenvalues[a].total_cmp(&eigen.eigenvalues[b]));
+    let least = eigen.eigenvalues[order[0]];
+    // The increments along the arm first, then across it.
+    let projected = order.map(|k| {
+        let e = eigen.eigenvectors.column(k);
+        (0..dv[0].len())
+            .map(|i| e[0] * dv[0][i] + e[1] * dv[1][i] + e[2] * dv[2][i])
+            .collect::<Vec<f64>>()
+    });
+    let (f, d) = rate_density(&projected[0], dt);
+    let along = white_level(&f, &d, from, to, interval_mean_random_walk(dt));
+    let white = along.density - turning_leak(&projected, fs, from, to)? * least;
+    Some(if along.upper_bound || white <= 0.0 {
+        WhiteLevel {
+            density: least,
+            upper_bound: true,
+        }
+    } else {
+        WhiteLevel {
+            density: white,
+            upper_bound: false,
+        }
+    })
+}
+
+/// The fraction of the band power along the arm (`z[0]`) that is the bending across it
+/// (`z[1]`, `z[2]`) turned into it by the flexure angle. The flexure turns the arm's
+/// direction by `θ⊥`, so along it lies `c(t)·u(t)`, `u` the bending's white part across
+/// the arm, `c ∝ θ⊥` slow against the band; it is white itself and the band's white
+/// level holds it. A product of a slow factor and a Gaussian `u` shows in the fourth
+/// moments: with `p` the band-limited increments along the arm, `E[p² u_k²] −
+/// E[p²] E[u_k²] = 2 E[c_k²] E[u_k²]²` (Isserlis; the noise along the arm independent of
+/// `u`), and the part of `E[p²]` it makes is `Σ_k E[c_k²] E[u_k²]`. `None` when the
+/// recording is too short for [`band_limited`] or a direction holds no power.
+fn turning_leak(z: &[Vec<f64>; 3], fs: f64, from: f64, to: f64) -> Option<f64> {
+    let [p, u1, u2] = [&z[0], &z[1], &z[2]].map(|c| band_limited(c, fs, from, to));
+    let (p, u) = (p?, [u1?, u2?]);
+    let mean = |v: &mut dyn Iterator<Item = f64>| {
+        let (sum, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+        sum / n.max(1) as f64
+    };
+    let p2 = mean(&mut p.iter().map(|v| v * v));
+    let mut leak = 0.0;
+    for u in &u {
+        let u2 = mean(&mut u.iter().map(|v| v * v));
+        let p2u2 = mean(&mut p.iter().zip(u).map(|(a, b)| a * a * b * b));
+        if !(u2.is_finite() && u2 > 0.0) {
+            return None;
+        }
+        leak += (p2u2 - p2 * u2) / (2.0 * u2);
+    }
+    (p2 > 0.0).then(|| (leak / p2).clamp(0.0, 1.0))
+}
+
 /// One-sided density ((unit/s)²/Hz) of the rate `x_k / dt` of one increment axis.
 fn rate_density(x: &[f64], dt: f64) -> (Vec<f64>, Vec<f64>) {
     let rate: Vec<f64> = x.iter().map(|v| v / dt).collect();
@@ -217,22 +307,26 @@ pub fn increment_noise(rec: &Recording, max_samples: usize) -> Result<IncrementN
     let mut gyro = [0.0; 3];
     let mut gyro_bound = [false; 3];
     let mut accel = [0.0; 3];
+    let dv: [Vec<f64>; 3] = [0, 1, 2].map(|k| imu.iter().map(|s| s.dv_mps[k]).collect());
     for k in 0..3 {
         let g: Vec<f64> = imu.iter().map(|s| s.dtheta_rad[k]).collect();
         let (f, d) = rate_density(&g, dt);
         let w = white_level(&f, &d, from, to, interval_mean_random_walk(dt));
         gyro[k] = (w.density / 2.0).sqrt();
         gyro_bound[k] = w.upper_bound;
-        let a: Vec<f64> = imu.iter().map(|s| s.dv_mps[k]).collect();
-        let (f, d) = rate_density(&a, dt);
+        let (f, d) = rate_density(&dv[k], dt);
         // The accelerometer's band holds the flexure's angular acceleration at the lever
         // arm, white itself: its floor is a bound whatever the red part's shape.
         accel[k] = (white_level(&f, &d, from, to, inverse_square).density / 2.0).sqrt();
     }
+    let along = along_arm_white_density([&dv[0], &dv[1], &dv[2]], dt, from, to)
+        .ok_or("no accelerometer band to read the velocity random walk from")?;
     Ok(IncrementNoise {
         gyro_arw_rad_rs: gyro,
         gyro_arw_is_upper_bound: gyro_bound,
         accel_floor_mps_rs: accel,
+        accel_vrw_mps_rs: (along.density.max(0.0) / 2.0).sqrt(),
+        accel_vrw_is_upper_bound: along.upper_bound,
         band_from_hz: from,
         band_to_hz: to,
     })
@@ -327,12 +421,84 @@ mod tests {
         assert!(!w.upper_bound && (n / n_arw - 1.0).abs() < 0.2, "{n}");
     }
 
+    /// Accelerometer increments over `dt`: a white noise of VRW `vrw` on every axis, and a
+    /// bending across the arm `r` (white, `across` times the noise's density on each of
+    /// its axes) turned by a slow angle (`turn` rad, about x and y at 0.2 and 0.13 Hz), as
+    /// the flexure angle turns its own bending.
+    fn bent_accelerometers(vrw: f64, across: f64, turn: f64, n: usize) -> [Vec<f64>; 3] {
+        use nalgebra::Vector3;
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let mut normal3 = move || Vector3::from_fn(|_, _| rng.sample(rand_distr::StandardNormal));
+        let dt = 0.005f64;
+        let arm = Vector3::new(1.0, 2.0, -2.0) / 3.0;
+        let sigma = vrw * dt.sqrt();
+        let samples: Vec<Vector3<f64>> = (0..n)
+            .map(|i| {
+                let t = i as f64 * dt;
+                let bend = normal3().cross(&arm) * (sigma * across.sqrt());
+                let angle = Vector3::new(
+                    (2.0 * std::f64::consts::PI * 0.2 * t).sin(),
+                    (2.0 * std::f64::consts::PI * 0.13 * t).cos(),
+                    0.0,
+                ) * turn;
+                normal3() * sigma + bend + angle.cross(&bend)
+            })
+            .collect();
+        [0, 1, 2].map(|k| samples.iter().map(|v| v[k]).collect())
+    }
+
+    #[test]
+    fn the_white_density_along_the_arm_is_read_under_a_bending_across_it() {
+        // A bending 10⁴ times the noise across the arm, turned by 15 mrad: along the arm
+        // it leaves about twice the noise's own density.
+        let (vrw, dt, n) = (1e-5, 0.005, 120_000);
+        let dv = bent_accelerometers(vrw, 1e4, 0.015, n);
+        let (from, to) = (50.0, 90.0);
+        let w = along_arm_white_density([&dv[0], &dv[1], &dv[2]], dt, from, to).expect("a band");
+        let read = (w.density / 2.0).sqrt();
+        assert!(
+            !w.upper_bound && (read / vrw - 1.0).abs() < 0.05,
+            "read {read:e}"
+        );
+        // The least eigenvalue alone holds the turned bending; one axis holds the bending.
+        let s = band_cross_density([&dv[0], &dv[1], &dv[2]], 1.0 / dt, from, to).unwrap();
+        let least = (s.symmetric_eigenvalues().min() / (dt * dt) / 2.0).sqrt();
+        assert!(least / vrw - 1.0 > 0.3, "least eigenvalue {least:e}");
+        let (f, d) = rate_density(&dv[0], dt);
+        let floor = (white_level(&f, &d, from, to, inverse_square).density / 2.0).sqrt();
+        assert!(floor > 30.0 * vrw, "floor {floor:e}");
+        // Unturned, the least eigenvalue is the noise, and so is the reading.
+        let dv = bent_accelerometers(vrw, 1e4, 0.0, n);
+        let w = along_arm_white_density([&dv[0], &dv[1], &dv[2]], dt, from, to).unwrap();
+        let read = (w.density / 2.0).sqrt();
+        assert!(
+            !w.upper_bound && (read / vrw - 1.0).abs() < 0.05,
+            "read unturned {read:e}"
+        );
+    }
+
+    #[test]
+    fn white_accelerometers_read_their_own_density() {
+        // No bending at all: the least of three equal white densities.
+        let (vrw, dt) = (3e-4, 0.005);
+        let dv = bent_accelerometers(vrw, 0.0, 0.0, 60_000);
+        let w = along_arm_white_density([&dv[0], &dv[1], &dv[2]], dt, 50.0, 90.0).unwrap();
+        let read = (w.density / 2.0).sqrt();
+        assert!(
+            !w.upper_bound && (read / vrw - 1.0).abs() < 0.05,
+            "read {read:e}"
+        );
+    }
+
     #[test]
     fn the_read_axes_give_the_random_walk_where_the_others_are_bounds() {
         let inc = |gyro_arw_rad_rs, gyro_arw_is_upper_bound| IncrementNoise {
             gyro_arw_rad_rs,
             gyro_arw_is_upper_bound,
             accel_floor_mps_rs: [0.0; 3],
+            accel_vrw_mps_rs: 0.0,
+            accel_vrw_is_upper_bound: true,
             band_from_hz: 100.0,
             band_to_hz: 180.0,
         };

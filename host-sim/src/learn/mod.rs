@@ -141,6 +141,11 @@ pub fn default_start(rec: &Recording, inc: Option<&IncrementNoise>) -> CalibConf
         let (lo, hi) = Param::GyroArw.bounds();
         c.gyro_arw_rad_rs = inc.gyro_arw().clamp(lo, hi);
         let (lo, hi) = Param::AccelVrw.bounds();
+        // Not yet the reading along the arm (`IncrementNoise::accel_vrw_mps_rs`): started
+        // from it, the 50-run's VRW error fell from 80 % to 0.7 %, but two blind
+        // diagnoses regressed (draw 103's lever arm 5.2σ off; draw 107's accelerometer
+        // scale factor leading where the test expects the gyro's), not yet traced
+        // (`docs/model-learning.md`, session 21).
         c.accel_vrw_mps_rs = c.accel_vrw_mps_rs.min(inc.accel_floor()).clamp(lo, hi);
     }
     c
