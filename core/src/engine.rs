@@ -285,8 +285,8 @@ struct Epoch<T: Real> {
     dt: f64,
 }
 
-/// Where `initialize` started the slave solution: the starting master's time (s) and
-/// how many buffered snapshots after it still hold raw increments, for `catch_up`.
+/// Where `initialize` started the slave solution: the starting master's time of validity
+/// `t − τ̂` (s) and how many buffered snapshots after it still hold raw increments, for `catch_up`.
 #[derive(Clone, Copy, Debug)]
 struct Start {
     t: f64,
@@ -664,8 +664,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
             g_force_bs: None,
             frozen: false,
             has_delay: layout_has_delay(&cfg),
-            // Set by `reconfigure`, which starts every engine.
-            off_epoch: false,
+            off_epoch: matches_off_epoch(&cfg),
             fits_master_rate: layout_fits_master_rate(&cfg),
             carried_force: uses_carried_force(&cfg),
             rigid_axes: rigid_axes(&cfg),
@@ -998,10 +997,10 @@ impl<T: Real, const S: usize> Engine<T, S> {
     /// The slave time up to which the solution must be integrated before the master
     /// message stamped `t` is matched: its time of validity `t − τ̂`. With a delay in the
     /// layout or declared (`matches_off_epoch`) the matching time falls anywhere between
-    /// filter epochs, and the flexure
-    /// states are read from the nearer epoch (`flexure_lag`): in the first half of a
-    /// period from the epoch before it (the slave goes to `t − τ̂`), in the second half
-    /// from the epoch that ends it (the slave goes on to that epoch first). Reading
+    /// filter epochs, and the flexure states are read from the nearer epoch
+    /// (`flexure_lag`): in the first half of a period from the epoch before it (the slave
+    /// goes to `t − τ̂`), in the second half from the epoch that ends it (the slave goes on
+    /// to that epoch first). Reading
     /// from the epoch after it alone put a whole period between the flexure states
     /// and a matching time just past an epoch (a delay estimate crossing zero), whose
     /// linear read-back then missed the flexure's curvature and its rate's change:
@@ -1336,7 +1335,7 @@ impl<T: Real, const S: usize> Engine<T, S> {
         if let Some(c_bs_n) = c_bs_n {
             Self::restart_covariance(&mut self.kf, &self.cfg, Some(&c_bs_n));
         }
-        // The snapshots after msg.t are integrated again in place (`catch_up`), with no
+        // The snapshots after the start are integrated again in place (`catch_up`), with no
         // copy of the buffer on the stack (it was the board's stack peak, 9.2 kB).
         self.buffer.drop_until(t_start);
         let raw_count = self.buffer.len();

@@ -41,7 +41,7 @@ pub struct IncrementNoise {
     /// The velocity random walk (m/s/√s): the accelerometers' white density along the
     /// lever arm, where the flexure's bending puts nothing
     /// ([`along_arm_white_density`]). On 30 blind draws within 2.6 % of the draw
-    /// (median 0.9 %), and within 11 % on ten draws with a VRW a tenth of the default
+    /// (median 0.6 %), and within 11 % on ten draws with a VRW a tenth of the default
     /// under the largest flexures, where the per-axis floors were 6–2 000× the draw
     /// (`docs/model-learning.md`, session 21). An upper bound where the bending moves the
     /// slave along its arm too, or a vibration fills all three axes.
@@ -319,8 +319,13 @@ pub fn increment_noise(rec: &Recording, max_samples: usize) -> Result<IncrementN
         // arm, white itself: its floor is a bound whatever the red part's shape.
         accel[k] = (white_level(&f, &d, from, to, inverse_square).density / 2.0).sqrt();
     }
-    let along = along_arm_white_density([&dv[0], &dv[1], &dv[2]], dt, from, to)
-        .ok_or("no accelerometer band to read the velocity random walk from")?;
+    // Where the arm's direction cannot be read (no power across it, a record too short
+    // to band-limit), the per-axis floors' median, a bound: the gyro's reading stands.
+    let along =
+        along_arm_white_density([&dv[0], &dv[1], &dv[2]], dt, from, to).unwrap_or(WhiteLevel {
+            density: 2.0 * median3(accel).powi(2),
+            upper_bound: true,
+        });
     Ok(IncrementNoise {
         gyro_arw_rad_rs: gyro,
         gyro_arw_is_upper_bound: gyro_bound,
