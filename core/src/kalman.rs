@@ -918,7 +918,7 @@ fn orthogonalize_n<T: Real>(w: Gram<'_, T>, scratch: [&mut [T]; 4], floor: T, t0
         }
         // Row j is used: its place takes column j of U.
         if let (Some(dst), Some(src)) = (rest.get_mut(..j), col.get(..j)) {
-            dst.copy_from_slice(src);
+            copy_words(dst, src);
         }
         if let Some(e) = d.get_mut(j) {
             *e = if dj < floor {
@@ -1106,6 +1106,36 @@ fn axpy_lanes2<T: Real>(dst: &mut [T], (f, s): (&[T; LANES], &[T]), (g, t): (&[T
             *d3 = *d3 + f3 * x + g3 * y;
             *d4 = *d4 + f4 * x + g4 * y;
             *d5 = *d5 + f5 * x + g5 * y;
+        }
+    }
+}
+
+/// `LANES` consecutive rows of `dst` (each `n` long) from `lanes`, where they are held
+/// column by column (see [`axpy_lanes`]): one pass, each chunk of `LANES` read once and
+/// its elements stored into the six rows (a row at a time, each element's lane read
+/// through a bounds check, cost the board ≈ 5 instructions an element). Out of line: one
+/// copy for the board's layouts.
+#[inline(never)]
+fn unlace<T: Real>(dst: &mut [T], n: usize, lanes: &[T]) {
+    let mut rows = dst.chunks_exact_mut(n.max(1));
+    let six = (
+        rows.next(),
+        rows.next(),
+        rows.next(),
+        rows.next(),
+        rows.next(),
+        rows.next(),
+    );
+    if let (Some(d0), Some(d1), Some(d2), Some(d3), Some(d4), Some(d5)) = six {
+        let rows = d0.iter_mut().zip(d1.iter_mut()).zip(d2.iter_mut());
+        let rows = rows
+            .zip(d3.iter_mut())
+            .zip(d4.iter_mut())
+            .zip(d5.iter_mut());
+        for ((((((a, b), c), d), e), f), lane) in rows.zip(lanes.chunks_exact(LANES)) {
+            if let [v0, v1, v2, v3, v4, v5] = lane {
+                (*a, *b, *c, *d, *e, *f) = (*v0, *v1, *v2, *v3, *v4, *v5);
+            }
         }
     }
 }
@@ -1847,9 +1877,18 @@ impl<T: Real, const N: usize> Kalman<T, N> {
                 i * N..(i + 1) * N
             };
             if lanes_at >> r & 1 != 0 {
-                // The rows taken together, column by column, into their rows of U.
+                // The rows taken together, column by column, into their rows of U: in one
+                // pass where those are consecutive (δv's and ψ's), else a row at a time.
                 let rows = active.get(r..r + LANES).unwrap_or(&[]);
                 let lanes = rows.as_flattened();
+                let i0 = phi.index.get(r).map_or(N, |&i| internal(i));
+                let next =
+                    (1..LANES).all(|q| phi.index.get(r + q).map(|&i| internal(i)) == Some(i0 + q));
+                if let (true, Some(dst)) = (next, u.get_mut(i0 * N..(i0 + LANES) * N)) {
+                    unlace(dst, N, lanes);
+                    r += LANES;
+                    continue;
+                }
                 for q in 0..LANES {
                     if let Some(dst) = u.get_mut(row_at(r + q)) {
                         for (d, lane) in dst.iter_mut().zip(lanes.chunks_exact(LANES)) {
