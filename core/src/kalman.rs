@@ -629,11 +629,24 @@ impl<T: Real, const N: usize> NoisePart<T, N> {
         // Column j's non-zero rows, the first `n` (written before they are read).
         let mut nz = [0u8; N];
         for j in (0..N).rev() {
-            let dj = q.at(j, j);
+            let mut rows = above.get(j).copied().unwrap_or(0);
+            let (Some(wj), Some(d)) = (q.w.get_mut(j), weight.get_mut(j)) else {
+                continue;
+            };
+            let Some(e) = wj.get_mut(j) else {
+                continue;
+            };
+            let dj = *e;
+            if rows == 0 {
+                // No row above marked (most columns: Q is a diagonal and a few pairs):
+                // nothing to eliminate, the column's weight only.
+                *d = if dj > T::zero() { dj } else { T::zero() };
+                *e = T::one();
+                continue;
+            }
             let mut n = 0;
             // The marked rows in ascending order, each kept if its value is not zero
             // (the same list as a scan of every row above j).
-            let mut rows = above.get(j).copied().unwrap_or(0);
             while rows != 0 {
                 let i = rows.trailing_zeros() as usize;
                 rows &= rows - 1;
@@ -676,8 +689,10 @@ impl<T: Real, const N: usize> NoisePart<T, N> {
             }
         }
         // Keep the weighted columns, moved left in each row (a kept column's index is at
-        // least its position, so moving in ascending order reads before it writes).
-        for (m, &wm) in weight.iter().enumerate() {
+        // least its position, so moving in ascending order reads before it writes). A
+        // state's first kept column at or after it is the number kept before it.
+        for ((m, &wm), f) in weight.iter().enumerate().zip(q.first.iter_mut()) {
+            *f = q.n as u8;
             if wm > T::zero() {
                 if let (Some(c), Some(d)) = (q.cols.get_mut(q.n), q.dq.get_mut(q.n)) {
                     *c = m as u8;
@@ -696,18 +711,6 @@ impl<T: Real, const N: usize> NoisePart<T, N> {
                 }
                 q.n += 1;
             }
-        }
-        let mut t = 0;
-        for (i, f) in q.first.iter_mut().enumerate() {
-            while q
-                .cols
-                .get(..q.n)
-                .and_then(|c| c.get(t))
-                .is_some_and(|&c| usize::from(c) < i)
-            {
-                t += 1;
-            }
-            *f = t as u8;
         }
     }
 
@@ -1669,9 +1672,15 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         // Q_s = S⁻¹ Q S⁻¹ on the upper triangle (internal order), factored; the sum of
         // what went in says whether it is finite before anything changes.
         let mut check = T::zero();
+        // The states with noise (a bit each, N ≤ 64), marked as Q is written.
+        let bit = |j: usize| 1u64.checked_shl(u32::try_from(j).unwrap_or(u32::MAX));
+        let mut dynamic = 0u64;
         let mut q = NoisePart::<T, N>::zeroed();
         q.factor(|w, above| {
             for (i, &qd) in q_diag.iter().enumerate() {
+                if qd != T::zero() {
+                    dynamic |= bit(i).unwrap_or(0);
+                }
                 let a = internal(i);
                 let v = qd * at(inv, a) * at(inv, a);
                 check += v;
@@ -1680,6 +1689,9 @@ impl<T: Real, const N: usize> Kalman<T, N> {
                 }
             }
             for &(i, j, v) in q_pairs.iter() {
+                if v != T::zero() {
+                    dynamic |= bit(i).unwrap_or(0) | bit(j).unwrap_or(0);
+                }
                 let (a, b) = (internal(i), internal(j));
                 let v = v * at(inv, a) * at(inv, b);
                 check += v;
@@ -1700,21 +1712,10 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             return;
         };
         // The static states at the end of the internal order (see [`orthogonalize`]):
-        // the states with noise or a row of Φ marked once (a bit each, N ≤ 64), then
-        // the internal order walked back to the first marked (a scan of Q's pairs and
-        // Φ's rows per state cost the board 0.9k instructions a time update).
-        let bit = |j: usize| 1u64.checked_shl(u32::try_from(j).unwrap_or(u32::MAX));
-        let mut dynamic = 0u64;
-        for (j, &v) in q_diag.iter().enumerate() {
-            if v != T::zero() {
-                dynamic |= bit(j).unwrap_or(0);
-            }
-        }
-        for &(a, b, v) in q_pairs.iter() {
-            if v != T::zero() {
-                dynamic |= bit(a).unwrap_or(0) | bit(b).unwrap_or(0);
-            }
-        }
+        // the states with noise (marked above, as Q was written: a loop of their own
+        // cost the board ≈ 0.3k instructions a time update) or a row of Φ, then the
+        // internal order walked back to the first marked (a scan of Q's pairs and Φ's
+        // rows per state cost the board 0.9k instructions a time update).
         for &j in phi.index.iter() {
             dynamic |= bit(j).unwrap_or(0);
         }
