@@ -2161,22 +2161,27 @@ fn sweep<T: Real>(
     step: T,
 ) {
     let n = xs.len();
-    let (Some(lambda), Some(g)) = (lambda.get(..n), g.get(..n)) else {
+    let hi = hi.min(n);
+    // λ and g cut at `hi` once (a triple's columns are then `from..`: one check each).
+    let (Some(lambda), Some(g), Some(g_all)) = (lambda.get(..hi), g.get(..hi), g.get(..n)) else {
         return;
     };
-    let hi = hi.min(n);
     let mut triples = u.chunks_exact_mut((3 * n).max(1));
     let mut x3 = xs.chunks_exact_mut(3);
-    for (p, (rows, x)) in (&mut triples).zip(&mut x3).enumerate() {
-        let from = lo.max(3 * p).min(hi);
+    let mut first = 0;
+    for (rows, x) in (&mut triples).zip(&mut x3) {
+        // (Past hi, no slice: b stays zero, as over the empty columns.)
+        let from = lo.max(first);
+        first += 3;
+        // The three rows' columns from..hi, at from, n + from and 2n + from.
         let (r0, rest) = rows.split_at_mut(n.min(rows.len()));
         let (r1, r2) = rest.split_at_mut(n.min(rest.len()));
         let b = match (
             r0.get_mut(from..hi),
             r1.get_mut(from..hi),
             r2.get_mut(from..hi),
-            lambda.get(from..hi),
-            g.get(from..hi),
+            lambda.get(from..),
+            g.get(from..),
         ) {
             (Some(r0), Some(r1), Some(r2), Some(ls), Some(gs)) => {
                 bierman_rows3([r0, r1, r2], ls, gs)
@@ -2199,14 +2204,14 @@ fn sweep<T: Real>(
         if let (Some(r0), Some(r1), Some(ls), Some(gs)) = (
             top.get_mut(from..hi),
             bottom.get_mut(from..hi),
-            lambda.get(from..hi),
-            g.get(from..hi),
+            lambda.get(from..),
+            g.get(from..),
         ) {
             let (b0, b1) = bierman_rows(r0, r1, ls, gs, (T::zero(), T::zero()));
             *x0 += step * b0;
             *x1 += step * b1;
         }
-    } else if let (Some(x), Some(&gi)) = (x.first_mut(), g.get(start)) {
+    } else if let (Some(x), Some(&gi)) = (x.first_mut(), g_all.get(start)) {
         *x += step * gi;
     }
 }
