@@ -425,64 +425,31 @@ fn axpy<T: Real>(dst: &mut [T], a: T, src: &[T]) {
     }
 }
 
-/// `Σ a[i] b[i]` over the shorter of the two, four products per loop turn (two partial
-/// sums, added at the end).
+/// `Σ a[i] b[i]` over the shorter of the two, in order, one product a loop turn. A plain
+/// loop: the Gram-Schmidt's rows are short (a pivot's W or Q part, 6–12 elements), and
+/// four products a turn in two partial sums, with the remainder's loop, cost the board
+/// more in set-up than they saved ("What issue12-s22 changed" in `docs/performance.md`;
+/// the sums' rounding differs from that form's, within the f32-against-f64 bound).
 #[inline(always)]
 fn dot<T: Real>(a: &[T], b: &[T]) -> T {
-    let n = a.len().min(b.len());
-    let (a, b) = (a.get(..n).unwrap_or(&[]), b.get(..n).unwrap_or(&[]));
-    let (mut s0, mut s1) = (T::zero(), T::zero());
-    let mut a4 = a.chunks_exact(4);
-    let mut b4 = b.chunks_exact(4);
-    for (x, y) in (&mut a4).zip(&mut b4) {
-        if let ([x0, x1, x2, x3], [y0, y1, y2, y3]) = (x, y) {
-            s0 += *x0 * *y0;
-            s1 += *x1 * *y1;
-            s0 += *x2 * *y2;
-            s1 += *x3 * *y3;
-        }
-    }
-    for (&x, &y) in a4.remainder().iter().zip(b4.remainder()) {
+    let mut s0 = T::zero();
+    for (&x, &y) in a.iter().zip(b) {
         s0 += x * y;
     }
-    s0 + s1
+    s0
 }
 
 /// `c[i] = d[i] w[i]` over the shortest of the three, and `dot(w, c)` over those (the
 /// same products summed in the same order as [`dot`]): one pass instead of two (the
-/// Gram-Schmidt's pivots, each row's two parts).
+/// Gram-Schmidt's pivots, each row's two parts). A plain loop, as [`dot`].
 #[inline(always)]
 fn weigh<T: Real>(w: &[T], d: &[T], c: &mut [T]) -> T {
-    let n = w.len().min(d.len()).min(c.len());
-    let (w, d, c) = (
-        w.get(..n).unwrap_or(&[]),
-        d.get(..n).unwrap_or(&[]),
-        c.get_mut(..n).unwrap_or(&mut []),
-    );
-    let (mut s0, mut s1) = (T::zero(), T::zero());
-    let (mut w4, mut d4, mut c4) = (w.chunks_exact(4), d.chunks_exact(4), c.chunks_exact_mut(4));
-    for ((x, y), z) in (&mut w4).zip(&mut d4).zip(&mut c4) {
-        if let ([x0, x1, x2, x3], [y0, y1, y2, y3], [z0, z1, z2, z3]) = (x, y, z) {
-            *z0 = *y0 * *x0;
-            *z1 = *y1 * *x1;
-            *z2 = *y2 * *x2;
-            *z3 = *y3 * *x3;
-            s0 += *x0 * *z0;
-            s1 += *x1 * *z1;
-            s0 += *x2 * *z2;
-            s1 += *x3 * *z3;
-        }
-    }
-    let rest = w4
-        .remainder()
-        .iter()
-        .zip(d4.remainder())
-        .zip(c4.into_remainder());
-    for ((&x, &y), z) in rest {
+    let mut s0 = T::zero();
+    for ((&x, &y), z) in w.iter().zip(d).zip(c.iter_mut()) {
         *z = y * x;
         s0 += x * *z;
     }
-    s0 + s1
+    s0
 }
 
 /// `dst ← src` (the shorter of the two), four elements a turn: the board's `memcpy` took
@@ -959,91 +926,30 @@ impl<T: Real> Pivot<'_, T> {
 }
 
 /// `(dot(a, c), dot(b, c))`, each bit for bit [`dot`]'s (the same products summed in the
-/// same order), over the shortest of the three, `c` read once for both.
+/// same order), over the shortest of the three, `c` read once for both. A plain loop, as
+/// [`dot`].
 #[inline(always)]
 fn dot2<T: Real>(a: &[T], b: &[T], c: &[T]) -> (T, T) {
-    let n = a.len().min(b.len()).min(c.len());
-    let (a, b, c) = (
-        a.get(..n).unwrap_or(&[]),
-        b.get(..n).unwrap_or(&[]),
-        c.get(..n).unwrap_or(&[]),
-    );
-    let (mut s0, mut s1, mut t0, mut t1) = (T::zero(), T::zero(), T::zero(), T::zero());
-    let (mut a4, mut b4, mut c4) = (a.chunks_exact(4), b.chunks_exact(4), c.chunks_exact(4));
-    for ((x, y), z) in (&mut a4).zip(&mut b4).zip(&mut c4) {
-        if let ([x0, x1, x2, x3], [y0, y1, y2, y3], [z0, z1, z2, z3]) = (x, y, z) {
-            let (z0, z1, z2, z3) = (*z0, *z1, *z2, *z3);
-            s0 += *x0 * z0;
-            s1 += *x1 * z1;
-            s0 += *x2 * z2;
-            s1 += *x3 * z3;
-            t0 += *y0 * z0;
-            t1 += *y1 * z1;
-            t0 += *y2 * z2;
-            t1 += *y3 * z3;
-        }
+    let (mut s0, mut s1) = (T::zero(), T::zero());
+    for ((&x, &y), &w) in a.iter().zip(b).zip(c) {
+        s0 += x * w;
+        s1 += y * w;
     }
-    let rest = a4
-        .remainder()
-        .iter()
-        .zip(b4.remainder())
-        .zip(c4.remainder());
-    for ((&x, &y), &z) in rest {
-        s0 += x * z;
-        t0 += y * z;
-    }
-    (s0 + s1, t0 + t1)
+    (s0, s1)
 }
 
 /// [`dot2`] for three rows: each dot bit for bit [`dot`]'s, `c` read once for the three.
+/// A plain loop, as [`dot`].
 #[inline(always)]
 fn dot3<T: Real>([a, b, e]: [&[T]; 3], c: &[T]) -> (T, T, T) {
-    let n = a.len().min(b.len()).min(e.len()).min(c.len());
-    let (a, b, e, c) = (
-        a.get(..n).unwrap_or(&[]),
-        b.get(..n).unwrap_or(&[]),
-        e.get(..n).unwrap_or(&[]),
-        c.get(..n).unwrap_or(&[]),
-    );
     let z = T::zero();
-    let (mut s0, mut s1, mut t0, mut t1, mut u0, mut u1) = (z, z, z, z, z, z);
-    let (mut a4, mut b4, mut e4, mut c4) = (
-        a.chunks_exact(4),
-        b.chunks_exact(4),
-        e.chunks_exact(4),
-        c.chunks_exact(4),
-    );
-    for (((x, y), v), z) in (&mut a4).zip(&mut b4).zip(&mut e4).zip(&mut c4) {
-        if let ([x0, x1, x2, x3], [y0, y1, y2, y3], [v0, v1, v2, v3], [z0, z1, z2, z3]) =
-            (x, y, v, z)
-        {
-            let (z0, z1, z2, z3) = (*z0, *z1, *z2, *z3);
-            s0 += *x0 * z0;
-            s1 += *x1 * z1;
-            s0 += *x2 * z2;
-            s1 += *x3 * z3;
-            t0 += *y0 * z0;
-            t1 += *y1 * z1;
-            t0 += *y2 * z2;
-            t1 += *y3 * z3;
-            u0 += *v0 * z0;
-            u1 += *v1 * z1;
-            u0 += *v2 * z2;
-            u1 += *v3 * z3;
-        }
+    let (mut s0, mut s1, mut s2) = (z, z, z);
+    for (((&x, &y), &v), &w) in a.iter().zip(b).zip(e).zip(c) {
+        s0 += x * w;
+        s1 += y * w;
+        s2 += v * w;
     }
-    let rest = a4
-        .remainder()
-        .iter()
-        .zip(b4.remainder())
-        .zip(e4.remainder())
-        .zip(c4.remainder());
-    for (((&x, &y), &v), &z) in rest {
-        s0 += x * z;
-        t0 += y * z;
-        u0 += v * z;
-    }
-    (s0 + s1, t0 + t1, u0 + u1)
+    (s0, s1, s2)
 }
 
 /// `d_k ← d_k − a_k src` for three rows (each element's arithmetic [`axpy`]'s with `−a_k`),
