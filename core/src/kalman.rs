@@ -425,64 +425,31 @@ fn axpy<T: Real>(dst: &mut [T], a: T, src: &[T]) {
     }
 }
 
-/// `Σ a[i] b[i]` over the shorter of the two, four products per loop turn (two partial
-/// sums, added at the end).
+/// `Σ a[i] b[i]` over the shorter of the two, in order, one product a loop turn. A plain
+/// loop: the Gram-Schmidt's rows are short (a pivot's W or Q part, 6–12 elements), and
+/// four products a turn in two partial sums, with the remainder's loop, cost the board
+/// more in set-up than they saved ("What issue12-s22 changed" in `docs/performance.md`;
+/// the sums' rounding differs from that form's, within the f32-against-f64 bound).
 #[inline(always)]
 fn dot<T: Real>(a: &[T], b: &[T]) -> T {
-    let n = a.len().min(b.len());
-    let (a, b) = (a.get(..n).unwrap_or(&[]), b.get(..n).unwrap_or(&[]));
-    let (mut s0, mut s1) = (T::zero(), T::zero());
-    let mut a4 = a.chunks_exact(4);
-    let mut b4 = b.chunks_exact(4);
-    for (x, y) in (&mut a4).zip(&mut b4) {
-        if let ([x0, x1, x2, x3], [y0, y1, y2, y3]) = (x, y) {
-            s0 += *x0 * *y0;
-            s1 += *x1 * *y1;
-            s0 += *x2 * *y2;
-            s1 += *x3 * *y3;
-        }
-    }
-    for (&x, &y) in a4.remainder().iter().zip(b4.remainder()) {
+    let mut s0 = T::zero();
+    for (&x, &y) in a.iter().zip(b) {
         s0 += x * y;
     }
-    s0 + s1
+    s0
 }
 
 /// `c[i] = d[i] w[i]` over the shortest of the three, and `dot(w, c)` over those (the
 /// same products summed in the same order as [`dot`]): one pass instead of two (the
-/// Gram-Schmidt's pivots, each row's two parts).
+/// Gram-Schmidt's pivots, each row's two parts). A plain loop, as [`dot`].
 #[inline(always)]
 fn weigh<T: Real>(w: &[T], d: &[T], c: &mut [T]) -> T {
-    let n = w.len().min(d.len()).min(c.len());
-    let (w, d, c) = (
-        w.get(..n).unwrap_or(&[]),
-        d.get(..n).unwrap_or(&[]),
-        c.get_mut(..n).unwrap_or(&mut []),
-    );
-    let (mut s0, mut s1) = (T::zero(), T::zero());
-    let (mut w4, mut d4, mut c4) = (w.chunks_exact(4), d.chunks_exact(4), c.chunks_exact_mut(4));
-    for ((x, y), z) in (&mut w4).zip(&mut d4).zip(&mut c4) {
-        if let ([x0, x1, x2, x3], [y0, y1, y2, y3], [z0, z1, z2, z3]) = (x, y, z) {
-            *z0 = *y0 * *x0;
-            *z1 = *y1 * *x1;
-            *z2 = *y2 * *x2;
-            *z3 = *y3 * *x3;
-            s0 += *x0 * *z0;
-            s1 += *x1 * *z1;
-            s0 += *x2 * *z2;
-            s1 += *x3 * *z3;
-        }
-    }
-    let rest = w4
-        .remainder()
-        .iter()
-        .zip(d4.remainder())
-        .zip(c4.into_remainder());
-    for ((&x, &y), z) in rest {
+    let mut s0 = T::zero();
+    for ((&x, &y), z) in w.iter().zip(d).zip(c.iter_mut()) {
         *z = y * x;
         s0 += x * *z;
     }
-    s0 + s1
+    s0
 }
 
 /// `dst ← src` (the shorter of the two), four elements a turn: the board's `memcpy` took
@@ -629,11 +596,24 @@ impl<T: Real, const N: usize> NoisePart<T, N> {
         // Column j's non-zero rows, the first `n` (written before they are read).
         let mut nz = [0u8; N];
         for j in (0..N).rev() {
-            let dj = q.at(j, j);
+            let mut rows = above.get(j).copied().unwrap_or(0);
+            let (Some(wj), Some(d)) = (q.w.get_mut(j), weight.get_mut(j)) else {
+                continue;
+            };
+            let Some(e) = wj.get_mut(j) else {
+                continue;
+            };
+            let dj = *e;
+            if rows == 0 {
+                // No row above marked (most columns: Q is a diagonal and a few pairs):
+                // nothing to eliminate, the column's weight only.
+                *d = if dj > T::zero() { dj } else { T::zero() };
+                *e = T::one();
+                continue;
+            }
             let mut n = 0;
             // The marked rows in ascending order, each kept if its value is not zero
             // (the same list as a scan of every row above j).
-            let mut rows = above.get(j).copied().unwrap_or(0);
             while rows != 0 {
                 let i = rows.trailing_zeros() as usize;
                 rows &= rows - 1;
@@ -676,8 +656,10 @@ impl<T: Real, const N: usize> NoisePart<T, N> {
             }
         }
         // Keep the weighted columns, moved left in each row (a kept column's index is at
-        // least its position, so moving in ascending order reads before it writes).
-        for (m, &wm) in weight.iter().enumerate() {
+        // least its position, so moving in ascending order reads before it writes). A
+        // state's first kept column at or after it is the number kept before it.
+        for ((m, &wm), f) in weight.iter().enumerate().zip(q.first.iter_mut()) {
+            *f = q.n as u8;
             if wm > T::zero() {
                 if let (Some(c), Some(d)) = (q.cols.get_mut(q.n), q.dq.get_mut(q.n)) {
                     *c = m as u8;
@@ -696,18 +678,6 @@ impl<T: Real, const N: usize> NoisePart<T, N> {
                 }
                 q.n += 1;
             }
-        }
-        let mut t = 0;
-        for (i, f) in q.first.iter_mut().enumerate() {
-            while q
-                .cols
-                .get(..q.n)
-                .and_then(|c| c.get(t))
-                .is_some_and(|&c| usize::from(c) < i)
-            {
-                t += 1;
-            }
-            *f = t as u8;
         }
     }
 
@@ -918,7 +888,7 @@ fn orthogonalize_n<T: Real>(w: Gram<'_, T>, scratch: [&mut [T]; 4], floor: T, t0
         }
         // Row j is used: its place takes column j of U.
         if let (Some(dst), Some(src)) = (rest.get_mut(..j), col.get(..j)) {
-            dst.copy_from_slice(src);
+            copy_words(dst, src);
         }
         if let Some(e) = d.get_mut(j) {
             *e = if dj < floor {
@@ -956,91 +926,30 @@ impl<T: Real> Pivot<'_, T> {
 }
 
 /// `(dot(a, c), dot(b, c))`, each bit for bit [`dot`]'s (the same products summed in the
-/// same order), over the shortest of the three, `c` read once for both.
+/// same order), over the shortest of the three, `c` read once for both. A plain loop, as
+/// [`dot`].
 #[inline(always)]
 fn dot2<T: Real>(a: &[T], b: &[T], c: &[T]) -> (T, T) {
-    let n = a.len().min(b.len()).min(c.len());
-    let (a, b, c) = (
-        a.get(..n).unwrap_or(&[]),
-        b.get(..n).unwrap_or(&[]),
-        c.get(..n).unwrap_or(&[]),
-    );
-    let (mut s0, mut s1, mut t0, mut t1) = (T::zero(), T::zero(), T::zero(), T::zero());
-    let (mut a4, mut b4, mut c4) = (a.chunks_exact(4), b.chunks_exact(4), c.chunks_exact(4));
-    for ((x, y), z) in (&mut a4).zip(&mut b4).zip(&mut c4) {
-        if let ([x0, x1, x2, x3], [y0, y1, y2, y3], [z0, z1, z2, z3]) = (x, y, z) {
-            let (z0, z1, z2, z3) = (*z0, *z1, *z2, *z3);
-            s0 += *x0 * z0;
-            s1 += *x1 * z1;
-            s0 += *x2 * z2;
-            s1 += *x3 * z3;
-            t0 += *y0 * z0;
-            t1 += *y1 * z1;
-            t0 += *y2 * z2;
-            t1 += *y3 * z3;
-        }
+    let (mut s0, mut s1) = (T::zero(), T::zero());
+    for ((&x, &y), &w) in a.iter().zip(b).zip(c) {
+        s0 += x * w;
+        s1 += y * w;
     }
-    let rest = a4
-        .remainder()
-        .iter()
-        .zip(b4.remainder())
-        .zip(c4.remainder());
-    for ((&x, &y), &z) in rest {
-        s0 += x * z;
-        t0 += y * z;
-    }
-    (s0 + s1, t0 + t1)
+    (s0, s1)
 }
 
 /// [`dot2`] for three rows: each dot bit for bit [`dot`]'s, `c` read once for the three.
+/// A plain loop, as [`dot`].
 #[inline(always)]
 fn dot3<T: Real>([a, b, e]: [&[T]; 3], c: &[T]) -> (T, T, T) {
-    let n = a.len().min(b.len()).min(e.len()).min(c.len());
-    let (a, b, e, c) = (
-        a.get(..n).unwrap_or(&[]),
-        b.get(..n).unwrap_or(&[]),
-        e.get(..n).unwrap_or(&[]),
-        c.get(..n).unwrap_or(&[]),
-    );
     let z = T::zero();
-    let (mut s0, mut s1, mut t0, mut t1, mut u0, mut u1) = (z, z, z, z, z, z);
-    let (mut a4, mut b4, mut e4, mut c4) = (
-        a.chunks_exact(4),
-        b.chunks_exact(4),
-        e.chunks_exact(4),
-        c.chunks_exact(4),
-    );
-    for (((x, y), v), z) in (&mut a4).zip(&mut b4).zip(&mut e4).zip(&mut c4) {
-        if let ([x0, x1, x2, x3], [y0, y1, y2, y3], [v0, v1, v2, v3], [z0, z1, z2, z3]) =
-            (x, y, v, z)
-        {
-            let (z0, z1, z2, z3) = (*z0, *z1, *z2, *z3);
-            s0 += *x0 * z0;
-            s1 += *x1 * z1;
-            s0 += *x2 * z2;
-            s1 += *x3 * z3;
-            t0 += *y0 * z0;
-            t1 += *y1 * z1;
-            t0 += *y2 * z2;
-            t1 += *y3 * z3;
-            u0 += *v0 * z0;
-            u1 += *v1 * z1;
-            u0 += *v2 * z2;
-            u1 += *v3 * z3;
-        }
+    let (mut s0, mut s1, mut s2) = (z, z, z);
+    for (((&x, &y), &v), &w) in a.iter().zip(b).zip(e).zip(c) {
+        s0 += x * w;
+        s1 += y * w;
+        s2 += v * w;
     }
-    let rest = a4
-        .remainder()
-        .iter()
-        .zip(b4.remainder())
-        .zip(e4.remainder())
-        .zip(c4.remainder());
-    for (((&x, &y), &v), &z) in rest {
-        s0 += x * z;
-        t0 += y * z;
-        u0 += v * z;
-    }
-    (s0 + s1, t0 + t1, u0 + u1)
+    (s0, s1, s2)
 }
 
 /// `d_k ← d_k − a_k src` for three rows (each element's arithmetic [`axpy`]'s with `−a_k`),
@@ -1106,6 +1015,36 @@ fn axpy_lanes2<T: Real>(dst: &mut [T], (f, s): (&[T; LANES], &[T]), (g, t): (&[T
             *d3 = *d3 + f3 * x + g3 * y;
             *d4 = *d4 + f4 * x + g4 * y;
             *d5 = *d5 + f5 * x + g5 * y;
+        }
+    }
+}
+
+/// `LANES` consecutive rows of `dst` (each `n` long) from `lanes`, where they are held
+/// column by column (see [`axpy_lanes`]): one pass, each chunk of `LANES` read once and
+/// its elements stored into the six rows (a row at a time, each element's lane read
+/// through a bounds check, cost the board ≈ 5 instructions an element). Out of line: one
+/// copy for the board's layouts.
+#[inline(never)]
+fn unlace<T: Real>(dst: &mut [T], n: usize, lanes: &[T]) {
+    let mut rows = dst.chunks_exact_mut(n.max(1));
+    let six = (
+        rows.next(),
+        rows.next(),
+        rows.next(),
+        rows.next(),
+        rows.next(),
+        rows.next(),
+    );
+    if let (Some(d0), Some(d1), Some(d2), Some(d3), Some(d4), Some(d5)) = six {
+        let rows = d0.iter_mut().zip(d1.iter_mut()).zip(d2.iter_mut());
+        let rows = rows
+            .zip(d3.iter_mut())
+            .zip(d4.iter_mut())
+            .zip(d5.iter_mut());
+        for ((((((a, b), c), d), e), f), lane) in rows.zip(lanes.chunks_exact(LANES)) {
+            if let [v0, v1, v2, v3, v4, v5] = lane {
+                (*a, *b, *c, *d, *e, *f) = (*v0, *v1, *v2, *v3, *v4, *v5);
+            }
         }
     }
 }
@@ -1639,9 +1578,15 @@ impl<T: Real, const N: usize> Kalman<T, N> {
         // Q_s = S⁻¹ Q S⁻¹ on the upper triangle (internal order), factored; the sum of
         // what went in says whether it is finite before anything changes.
         let mut check = T::zero();
+        // The states with noise (a bit each, N ≤ 64), marked as Q is written.
+        let bit = |j: usize| 1u64.checked_shl(u32::try_from(j).unwrap_or(u32::MAX));
+        let mut dynamic = 0u64;
         let mut q = NoisePart::<T, N>::zeroed();
         q.factor(|w, above| {
             for (i, &qd) in q_diag.iter().enumerate() {
+                if qd != T::zero() {
+                    dynamic |= bit(i).unwrap_or(0);
+                }
                 let a = internal(i);
                 let v = qd * at(inv, a) * at(inv, a);
                 check += v;
@@ -1650,6 +1595,9 @@ impl<T: Real, const N: usize> Kalman<T, N> {
                 }
             }
             for &(i, j, v) in q_pairs.iter() {
+                if v != T::zero() {
+                    dynamic |= bit(i).unwrap_or(0) | bit(j).unwrap_or(0);
+                }
                 let (a, b) = (internal(i), internal(j));
                 let v = v * at(inv, a) * at(inv, b);
                 check += v;
@@ -1670,21 +1618,10 @@ impl<T: Real, const N: usize> Kalman<T, N> {
             return;
         };
         // The static states at the end of the internal order (see [`orthogonalize`]):
-        // the states with noise or a row of Φ marked once (a bit each, N ≤ 64), then
-        // the internal order walked back to the first marked (a scan of Q's pairs and
-        // Φ's rows per state cost the board 0.9k instructions a time update).
-        let bit = |j: usize| 1u64.checked_shl(u32::try_from(j).unwrap_or(u32::MAX));
-        let mut dynamic = 0u64;
-        for (j, &v) in q_diag.iter().enumerate() {
-            if v != T::zero() {
-                dynamic |= bit(j).unwrap_or(0);
-            }
-        }
-        for &(a, b, v) in q_pairs.iter() {
-            if v != T::zero() {
-                dynamic |= bit(a).unwrap_or(0) | bit(b).unwrap_or(0);
-            }
-        }
+        // the states with noise (marked above, as Q was written: a loop of their own
+        // cost the board ≈ 0.3k instructions a time update) or a row of Φ, then the
+        // internal order walked back to the first marked (a scan of Q's pairs and Φ's
+        // rows per state cost the board 0.9k instructions a time update).
         for &j in phi.index.iter() {
             dynamic |= bit(j).unwrap_or(0);
         }
@@ -1847,9 +1784,18 @@ impl<T: Real, const N: usize> Kalman<T, N> {
                 i * N..(i + 1) * N
             };
             if lanes_at >> r & 1 != 0 {
-                // The rows taken together, column by column, into their rows of U.
+                // The rows taken together, column by column, into their rows of U: in one
+                // pass where those are consecutive (δv's and ψ's), else a row at a time.
                 let rows = active.get(r..r + LANES).unwrap_or(&[]);
                 let lanes = rows.as_flattened();
+                let i0 = phi.index.get(r).map_or(N, |&i| internal(i));
+                let next =
+                    (1..LANES).all(|q| phi.index.get(r + q).map(|&i| internal(i)) == Some(i0 + q));
+                if let (true, Some(dst)) = (next, u.get_mut(i0 * N..(i0 + LANES) * N)) {
+                    unlace(dst, N, lanes);
+                    r += LANES;
+                    continue;
+                }
                 for q in 0..LANES {
                     if let Some(dst) = u.get_mut(row_at(r + q)) {
                         for (d, lane) in dst.iter_mut().zip(lanes.chunks_exact(LANES)) {
@@ -2000,7 +1946,38 @@ fn update_n<T: Real>(
     else {
         return refused;
     };
-    for ((fj, dj), &gj) in fs.iter_mut().zip(ds.iter_mut()).zip(gs) {
+    let columns = fs.iter_mut().zip(ds.iter_mut()).zip(gs);
+    if r > T::zero() {
+        // α starts at r > 0 and does not fall (each term f_j g_j = D_j f_j² ≥ 0, the same
+        // terms in the same order as s, which is finite): the two tests of the general
+        // loop below hold at every column, and are left out (≈ 6 instructions a column
+        // on the board). The same operations otherwise.
+        for ((fj, dj), &gj) in columns {
+            let v = *fj;
+            if v != T::zero() {
+                let prev = alpha;
+                alpha += v * gj;
+                let mut dn = *dj;
+                dn *= prev / alpha;
+                *fj = -v / prev;
+                if dn < floor {
+                    dn = floor;
+                    clamped += 1;
+                }
+                *dj = dn;
+            }
+        }
+        sweep(u, xs, (f, g), (lo, hi), innovation / s);
+        health.variance_clamped += clamped;
+        health.updates += 1;
+        return ScalarUpdate {
+            innovation,
+            variance: s,
+            test_ratio,
+            accepted: true,
+        };
+    }
+    for ((fj, dj), &gj) in columns {
         let v = *fj;
         if v != T::zero() {
             let prev = alpha;
@@ -2121,22 +2098,27 @@ fn sweep<T: Real>(
     step: T,
 ) {
     let n = xs.len();
-    let (Some(lambda), Some(g)) = (lambda.get(..n), g.get(..n)) else {
+    let hi = hi.min(n);
+    // λ and g cut at `hi` once (a triple's columns are then `from..`: one check each).
+    let (Some(lambda), Some(g), Some(g_all)) = (lambda.get(..hi), g.get(..hi), g.get(..n)) else {
         return;
     };
-    let hi = hi.min(n);
     let mut triples = u.chunks_exact_mut((3 * n).max(1));
     let mut x3 = xs.chunks_exact_mut(3);
-    for (p, (rows, x)) in (&mut triples).zip(&mut x3).enumerate() {
-        let from = lo.max(3 * p).min(hi);
+    let mut first = 0;
+    for (rows, x) in (&mut triples).zip(&mut x3) {
+        // (Past hi, no slice: b stays zero, as over the empty columns.)
+        let from = lo.max(first);
+        first += 3;
+        // The three rows' columns from..hi, at from, n + from and 2n + from.
         let (r0, rest) = rows.split_at_mut(n.min(rows.len()));
         let (r1, r2) = rest.split_at_mut(n.min(rest.len()));
         let b = match (
             r0.get_mut(from..hi),
             r1.get_mut(from..hi),
             r2.get_mut(from..hi),
-            lambda.get(from..hi),
-            g.get(from..hi),
+            lambda.get(from..),
+            g.get(from..),
         ) {
             (Some(r0), Some(r1), Some(r2), Some(ls), Some(gs)) => {
                 bierman_rows3([r0, r1, r2], ls, gs)
@@ -2159,14 +2141,14 @@ fn sweep<T: Real>(
         if let (Some(r0), Some(r1), Some(ls), Some(gs)) = (
             top.get_mut(from..hi),
             bottom.get_mut(from..hi),
-            lambda.get(from..hi),
-            g.get(from..hi),
+            lambda.get(from..),
+            g.get(from..),
         ) {
             let (b0, b1) = bierman_rows(r0, r1, ls, gs, (T::zero(), T::zero()));
             *x0 += step * b0;
             *x1 += step * b1;
         }
-    } else if let (Some(x), Some(&gi)) = (x.first_mut(), g.get(start)) {
+    } else if let (Some(x), Some(&gi)) = (x.first_mut(), g_all.get(start)) {
         *x += step * gi;
     }
 }
