@@ -113,7 +113,7 @@ fn learned_model_calibrates_blind_recordings_consistently() {
 /// eigenvalue alone was 65–70 % high (seeds 11 and 14: a VRW 0.14–0.19× the default
 /// under flexures of up to 3′), and within 15 % with seed 10's VRW set to a tenth of the
 /// default (the least eigenvalue alone 260 % high, read −11 %) (`docs/model-learning.md`,
-/// session 21).
+/// session 21). Not a bound there, it is the learner's start (session 22).
 #[test]
 fn velocity_random_walk_read_from_blind_increments_within_5_percent_and_15_at_a_tenth() {
     let small = |seed| {
@@ -142,5 +142,7 @@ fn velocity_random_walk_read_from_blind_increments_within_5_percent_and_15_at_a_
             "seed {seed}: {:+.1} %",
             100.0 * error
         );
+        let start = default_start(&rec, Some(&inc)).accel_vrw_mps_rs;
+        assert_eq!(start, read, "seed {seed}: the learner's start");
     }
 }
