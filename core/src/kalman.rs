@@ -1967,35 +1967,27 @@ fn update_n<T: Real>(
                 *dj = dn;
             }
         }
-        sweep(u, xs, (f, g), (lo, hi), innovation / s);
-        health.variance_clamped += clamped;
-        health.updates += 1;
-        return ScalarUpdate {
-            innovation,
-            variance: s,
-            test_ratio,
-            accepted: true,
-        };
-    }
-    for ((fj, dj), &gj) in columns {
-        let v = *fj;
-        if v != T::zero() {
-            let prev = alpha;
-            alpha += v * gj;
-            let mut dn = *dj;
-            if alpha > T::zero() {
-                dn *= prev / alpha;
+    } else {
+        for ((fj, dj), &gj) in columns {
+            let v = *fj;
+            if v != T::zero() {
+                let prev = alpha;
+                alpha += v * gj;
+                let mut dn = *dj;
+                if alpha > T::zero() {
+                    dn *= prev / alpha;
+                }
+                *fj = if prev > T::zero() {
+                    -v / prev
+                } else {
+                    T::zero()
+                };
+                if dn < floor {
+                    dn = floor;
+                    clamped += 1;
+                }
+                *dj = dn;
             }
-            *fj = if prev > T::zero() {
-                -v / prev
-            } else {
-                T::zero()
-            };
-            if dn < floor {
-                dn = floor;
-                clamped += 1;
-            }
-            *dj = dn;
         }
     }
     // Then U and the state ([`sweep`]).

@@ -55,7 +55,7 @@ fn likelihood_per_innovation(rec: &Recording, cfg: &CalibConfig) -> ([f64; 3], u
 /// interpolated between two interval midpoints there, extrapolated on a stamp:
 /// `docs/diagnosis.md`), so only its excess is bounded.
 #[test]
-fn a_declared_delay_is_matched_as_well_as_no_delay_at_all() {
+fn a_declared_delay_is_matched_as_well_as_no_delay_at_all_handed_its_model() {
     let (rec, cfg) = draw_with_delay(0.0);
     let (none, n_none) = likelihood_per_innovation(&rec, &cfg);
     for tau in [0.010, 0.020, 0.0125] {
